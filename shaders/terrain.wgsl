@@ -1,0 +1,223 @@
+// Terrain pass of the spherical clipmap (spherical-clipmaps.md §3–5).
+//
+// Vertex: static ring vertex p̃ (view space) → map transform → height from the level texture
+// (manual bilinear, blended into the next coarser level near the level's outer edge) →
+// camera-relative position with no f32 cancellation (DESIGN.md: 1 − cos θ̃ precomputed in f64).
+// Fragment: normal from the height texture by finite differences on the sphere (pole-safe: the
+// offsets are view-space directions, never φ/θ derivatives), sun lighting, hypsometric colours,
+// optional level overlay.
+//
+// Prepended at build time: generated constants (MAX_LEVELS, …) and common/map_transform.wgsl.
+
+// Rust twin: render::terrain::gpu_data::FrameUniforms.
+struct FrameUniforms {
+    clip_from_view: mat4x4<f32>,
+    transform: TransformUniforms,
+    sun_view: vec4<f32>,
+    radius_m: f32,
+    eye_height_m: f32,
+    blend_fraction: f32,
+    texture_size: u32,
+    transform_form: u32,
+    approx_start_level: u32,
+    coarsest_level: u32,
+    finest_level: u32,
+    overlay: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
+}
+
+// Rust twin: render::terrain::gpu_data::LevelUniforms.
+struct LevelUniforms {
+    // Viewer's grid coordinates modulo the texture size (texel units).
+    grid_x_viewer: f32,
+    grid_y_viewer: f32,
+    inv_dphi: f32,
+    inv_dtheta: f32,
+    dtheta_rad: f32,
+    _pad0: f32,
+    _pad1: f32,
+    _pad2: f32,
+}
+
+struct RingVertex {
+    @location(0) p_tilde: vec3<f32>,
+    @location(1) one_minus_cos: f32,
+    @location(2) theta_tilde_rad: f32,
+    @location(3) ring_t: f32,
+    @location(4) level: u32,
+    @location(5) seam_side: f32,
+}
+
+struct VertexOut {
+    @builtin(position) clip: vec4<f32>,
+    // (Δφ, Δθ) of the vertex, interpolated like the paper's texture coordinates (§4.4).
+    @location(0) map_pos: vec2<f32>,
+    @location(1) p_tilde: vec3<f32>,
+    @location(2) coarse_blend: f32,
+    @location(3) @interpolate(flat) level: u32,
+}
+
+@group(0) @binding(0) var<uniform> frame: FrameUniforms;
+@group(0) @binding(1) var<uniform> levels: array<LevelUniforms, MAX_LEVELS>;
+@group(0) @binding(2) var heights: texture_2d_array<f32>;
+
+const OVERLAY_LEVELS: u32 = 1u;
+
+fn wrap_texel(i: i32) -> i32 {
+    let s = i32(frame.texture_size);
+    return ((i % s) + s) % s;
+}
+
+// Bilinear height of level `level` at map offset d = (Δφ, Δθ) from the viewer. Manual
+// filtering in f32 (hardware filtering quantises the weights to 8 bits, visible up close).
+fn level_height(level: u32, d: vec2<f32>) -> f32 {
+    let g = levels[level];
+    let x = d.x * g.inv_dphi + g.grid_x_viewer;
+    let y = d.y * g.inv_dtheta + g.grid_y_viewer;
+    let x0 = floor(x);
+    let y0 = floor(y);
+    let fx = x - x0;
+    let fy = y - y0;
+    let ix0 = wrap_texel(i32(x0));
+    let ix1 = wrap_texel(i32(x0) + 1);
+    let iy0 = wrap_texel(i32(y0));
+    let iy1 = wrap_texel(i32(y0) + 1);
+    let layer = i32(level);
+    let h00 = textureLoad(heights, vec2<i32>(ix0, iy0), layer, 0).x;
+    let h10 = textureLoad(heights, vec2<i32>(ix1, iy0), layer, 0).x;
+    let h01 = textureLoad(heights, vec2<i32>(ix0, iy1), layer, 0).x;
+    let h11 = textureLoad(heights, vec2<i32>(ix1, iy1), layer, 0).x;
+    return mix(mix(h00, h10, fx), mix(h01, h11, fx), fy);
+}
+
+// Height of a point of level `level`, blended by `coarse_blend` into the next coarser level so
+// that a level's outer ring equals the coarser level's inner ring exactly (no cracks).
+fn terrain_height(level: u32, d: vec2<f32>, coarse_blend: f32) -> f32 {
+    let fine = level_height(level, d);
+    if coarse_blend <= 0.0 {
+        return fine;
+    }
+    return mix(fine, level_height(level - 1u, d), coarse_blend);
+}
+
+// Weight of the next coarser level: 1 on the level's outer ring, 0 from `blend_fraction` of the
+// level inwards; 0 on the coarsest drawn level (nothing coarser is on screen to match).
+fn coarse_blend_weight(level: u32, ring_t: f32) -> f32 {
+    if level <= frame.coarsest_level || level == 0u {
+        return 0.0;
+    }
+    return clamp(1.0 - ring_t / frame.blend_fraction, 0.0, 1.0);
+}
+
+fn map_transform(p_tilde: vec3<f32>, seam_side: f32, level: u32, ring_t: f32) -> vec2<f32> {
+    switch frame.transform_form {
+        case 0u: {
+            return map_transform_direct(frame.transform, p_tilde, seam_side);
+        }
+        case 2u: {
+            // By ring, continuous across level boundaries (level i, ring_t 0 ≡ level i−1,
+            // ring_t 1): 0 outside approx_start_level, ramping to 1 across it (Fig. 14).
+            let w = clamp(f32(level) + ring_t - f32(frame.approx_start_level), 0.0, 1.0);
+            return map_transform_blended(w, frame.transform, p_tilde, seam_side);
+        }
+        default: {
+            return map_transform_stable(frame.transform, p_tilde, seam_side);
+        }
+    }
+}
+
+@vertex
+fn vs_main(v: RingVertex) -> VertexOut {
+    let d = map_transform(v.p_tilde, v.seam_side, v.level, v.ring_t);
+    let blend = coarse_blend_weight(v.level, v.ring_t);
+    let h = terrain_height(v.level, d, blend);
+    // Position relative to the eye in view space: the eye is at (0, 0, R + h_eye).
+    // z = (h − h_eye) − (R + h)·(1 − cos θ̃) (DESIGN.md), with 1 − cos θ̃ from f64.
+    let r = frame.radius_m + h;
+    let rel = vec3<f32>(r * v.p_tilde.x, r * v.p_tilde.y, (h - frame.eye_height_m) - r * v.one_minus_cos);
+    var out: VertexOut;
+    out.clip = frame.clip_from_view * vec4<f32>(rel, 1.0);
+    out.map_pos = d;
+    out.p_tilde = v.p_tilde;
+    out.coarse_blend = blend;
+    out.level = v.level;
+    return out;
+}
+
+fn height_at_direction(level: u32, u: vec3<f32>, coarse_blend: f32) -> f32 {
+    let d = map_transform_stable(frame.transform, u, 0.0);
+    return terrain_height(level, d, coarse_blend);
+}
+
+// Hypsometric tint: bathymetry blues, lowland greens, upland browns, rock, snow.
+fn hypsometric(h: f32) -> vec3<f32> {
+    if h < 0.0 {
+        let t = clamp(-h / 6000.0, 0.0, 1.0);
+        return mix(vec3<f32>(0.16, 0.42, 0.62), vec3<f32>(0.02, 0.07, 0.25), sqrt(t));
+    }
+    let stops = array<vec4<f32>, 6>(
+        vec4<f32>(0.0, 0.20, 0.45, 0.18),
+        vec4<f32>(300.0, 0.36, 0.56, 0.24),
+        vec4<f32>(1000.0, 0.68, 0.64, 0.38),
+        vec4<f32>(2200.0, 0.52, 0.40, 0.28),
+        vec4<f32>(3800.0, 0.55, 0.53, 0.52),
+        vec4<f32>(5200.0, 0.96, 0.96, 0.98),
+    );
+    var c = stops[5].yzw;
+    for (var i = 0; i < 5; i++) {
+        if h < stops[i + 1].x {
+            let t = (h - stops[i].x) / (stops[i + 1].x - stops[i].x);
+            c = mix(stops[i].yzw, stops[i + 1].yzw, t);
+            break;
+        }
+    }
+    return c;
+}
+
+fn level_colour(level: u32) -> vec3<f32> {
+    let palette = array<vec3<f32>, 8>(
+        vec3<f32>(0.90, 0.10, 0.10),
+        vec3<f32>(0.95, 0.55, 0.05),
+        vec3<f32>(0.95, 0.90, 0.10),
+        vec3<f32>(0.15, 0.80, 0.15),
+        vec3<f32>(0.05, 0.75, 0.85),
+        vec3<f32>(0.15, 0.30, 0.95),
+        vec3<f32>(0.60, 0.15, 0.90),
+        vec3<f32>(0.95, 0.30, 0.70),
+    );
+    return palette[level % 8u];
+}
+
+@fragment
+fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
+    let level = in.level;
+    let blend = clamp(in.coarse_blend, 0.0, 1.0);
+    let h = terrain_height(level, in.map_pos, blend);
+
+    // Normal: central differences along two tangents of the unit sphere at the fragment,
+    // one texel apart. n ∝ (R+h)·u − ∂h/∂e1·e1 − ∂h/∂e2·e2 for unit angular offsets.
+    let u = normalize(in.p_tilde);
+    var axis = vec3<f32>(0.0, 0.0, 1.0);
+    if abs(u.z) > 0.9 {
+        axis = vec3<f32>(1.0, 0.0, 0.0);
+    }
+    let e1 = normalize(cross(axis, u));
+    let e2 = cross(u, e1);
+    let eps = levels[level].dtheta_rad;
+    let h1p = height_at_direction(level, normalize(u + eps * e1), blend);
+    let h1m = height_at_direction(level, normalize(u - eps * e1), blend);
+    let h2p = height_at_direction(level, normalize(u + eps * e2), blend);
+    let h2m = height_at_direction(level, normalize(u - eps * e2), blend);
+    let g1 = (h1p - h1m) / (2.0 * eps);
+    let g2 = (h2p - h2m) / (2.0 * eps);
+    let n = normalize((frame.radius_m + h) * u - g1 * e1 - g2 * e2);
+
+    let lambert = max(dot(n, frame.sun_view.xyz), 0.0);
+    var colour = hypsometric(h) * (0.28 + 0.72 * lambert);
+    if (frame.overlay & OVERLAY_LEVELS) != 0u {
+        colour = mix(colour, level_colour(level) * (0.35 + 0.65 * lambert), 0.6);
+    }
+    return vec4<f32>(colour, 1.0);
+}

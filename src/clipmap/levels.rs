@@ -1,0 +1,262 @@
+//! Map-space windows of the clipmap level textures and their toroidal updates
+//! (spherical-clipmaps.md §4.1).
+//!
+//! Level i's texture is an S×S grid of height samples in map space (φ, θ). Grid point (gx, gy)
+//! sits at φ = gx·dφ, θ = gy·dθ and is stored in texel (gx mod S, gy mod S): toroidal
+//! addressing, so when the viewer moves only the new rows and columns are written.
+//!
+//! - θ: the texture spans 4·θ̃_{i,0} (twice the level's diameter), so dθ = 4·2^−i·π / S. The
+//!   margin lets the blend and the fragment normals read a little beyond the level.
+//! - φ: the span is 2π/2^k, the smallest power-of-two fraction of the circle that covers the
+//!   level's footprint at the viewer's colatitude (§4.1: power-of-two steps, so a small move in
+//!   θv does not rescale the texture); 2π (k = 0) when the footprint contains a pole. Because the
+//!   span divides 2π, φ's own wrap-around and the toroidal wrap agree.
+
+use std::f64::consts::{PI, TAU};
+
+use super::settings::level_outer_theta_rad;
+
+/// The map-space grid of one level for one viewer position.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LevelGrid {
+    pub level: u32,
+    /// log2 of 2π / (φ span): the span is 2π/2^k.
+    pub phi_pow: u32,
+    pub dphi_rad: f64,
+    pub dtheta_rad: f64,
+    /// First grid column of the window, reduced modulo the φ period `period_x()`.
+    pub gx0: i64,
+    /// First grid row of the window (θ does not wrap; rows beyond a pole are valid samples of
+    /// the points across it).
+    pub gy0: i64,
+    pub size: u32,
+}
+
+/// A rectangle of grid points to (re)compute: columns gx0..gx0+width (modulo the φ period),
+/// rows gy0..gy0+height.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct GridRect {
+    pub gx0: i64,
+    pub gy0: i64,
+    pub width: u32,
+    pub height: u32,
+}
+
+impl GridRect {
+    pub fn texels(&self) -> u64 {
+        self.width as u64 * self.height as u64
+    }
+}
+
+impl LevelGrid {
+    /// φ period of the grid in columns: S·2^k columns make 2π.
+    pub fn period_x(&self) -> i64 {
+        (self.size as i64) << self.phi_pow
+    }
+
+    /// The grid of `level` for a viewer at (φv, θv), keeping `previous`'s φ span when it still
+    /// covers the footprint and is at most one step too wide (hysteresis: a span change
+    /// rewrites the whole level).
+    pub fn for_viewer(
+        level: u32,
+        size: u32,
+        phi_v: f64,
+        theta_v: f64,
+        previous: Option<&LevelGrid>,
+    ) -> Self {
+        let half_width = 2.0 * level_outer_theta_rad(level);
+        let dtheta_rad = 2.0 * half_width / size as f64;
+        // Half-extent in φ of the cap of radius `half_width` (plus two texels of margin for
+        // the bilinear footprint) around the viewer; the whole circle if it holds a pole.
+        let reach = half_width + 2.0 * dtheta_rad;
+        let needed_half_phi = if reach >= theta_v.min(PI - theta_v) || reach >= PI / 2.0 {
+            PI
+        } else {
+            (reach.sin() / theta_v.sin()).clamp(-1.0, 1.0).asin()
+        };
+        // Texture half-width in φ is span/2 = π/2^k ≥ needed (keeping one texel spare).
+        let fits = |k: u32| -> bool {
+            let span = TAU / (1u64 << k) as f64;
+            span / 2.0 * (1.0 - 2.0 / size as f64) >= needed_half_phi || k == 0
+        };
+        let mut ideal = 0u32;
+        while ideal < 62 && fits(ideal + 1) {
+            ideal += 1;
+        }
+        let phi_pow = match previous {
+            Some(p)
+                if p.level == level
+                    && p.size == size
+                    && fits(p.phi_pow)
+                    && p.phi_pow + 1 >= ideal =>
+            {
+                p.phi_pow
+            }
+            _ => ideal,
+        };
+        let dphi_rad = TAU / ((size as u64) << phi_pow) as f64;
+        let period = (size as i64) << phi_pow;
+        let half = size as i64 / 2;
+        let gx0 = ((phi_v / dphi_rad).floor() as i64 - half).rem_euclid(period);
+        let gy0 = (theta_v / dtheta_rad).floor() as i64 - half;
+        Self {
+            level,
+            phi_pow,
+            dphi_rad,
+            dtheta_rad,
+            gx0,
+            gy0,
+            size,
+        }
+    }
+
+    /// Viewer's continuous grid coordinates reduced modulo S, the texture-space anchor the
+    /// vertex shader adds its small Δφ/dφ, Δθ/dθ to (kept small so f32 holds them exactly).
+    pub fn viewer_texel(&self, phi_v: f64, theta_v: f64) -> (f64, f64) {
+        let s = self.size as f64;
+        (
+            (phi_v / self.dphi_rad).rem_euclid(s),
+            (theta_v / self.dtheta_rad).rem_euclid(s),
+        )
+    }
+
+    /// Grid points that `self` holds and `old` did not: the strips to recompute after a move.
+    /// Everything when there is no old window or the grid changed.
+    pub fn dirty_since(&self, old: Option<&LevelGrid>) -> Vec<GridRect> {
+        let s = self.size as i64;
+        let full = vec![GridRect {
+            gx0: self.gx0,
+            gy0: self.gy0,
+            width: self.size,
+            height: self.size,
+        }];
+        let Some(old) = old else { return full };
+        if old.phi_pow != self.phi_pow || old.size != self.size || old.level != self.level {
+            return full;
+        }
+        let period = self.period_x();
+        // Shortest signed column shift, modulo the φ period (crossing φ = 0 is not a jump).
+        let mut dx = (self.gx0 - old.gx0).rem_euclid(period);
+        if dx > period / 2 {
+            dx -= period;
+        }
+        let dy = self.gy0 - old.gy0;
+        if dx.abs() >= s || dy.abs() >= s {
+            return full;
+        }
+        let mut rects = Vec::new();
+        // New columns, full height of the new window.
+        if dx > 0 {
+            rects.push(GridRect {
+                gx0: (old.gx0 + s).rem_euclid(period),
+                gy0: self.gy0,
+                width: dx as u32,
+                height: self.size,
+            });
+        } else if dx < 0 {
+            rects.push(GridRect {
+                gx0: self.gx0,
+                gy0: self.gy0,
+                width: (-dx) as u32,
+                height: self.size,
+            });
+        }
+        // New rows, over the columns not already covered above.
+        let (cx0, cw) = if dx >= 0 {
+            (self.gx0, s - dx)
+        } else {
+            ((self.gx0 - dx).rem_euclid(period), s + dx)
+        };
+        if cw > 0 {
+            if dy > 0 {
+                rects.push(GridRect {
+                    gx0: cx0,
+                    gy0: old.gy0 + s,
+                    width: cw as u32,
+                    height: dy as u32,
+                });
+            } else if dy < 0 {
+                rects.push(GridRect {
+                    gx0: cx0,
+                    gy0: self.gy0,
+                    width: cw as u32,
+                    height: (-dy) as u32,
+                });
+            }
+        }
+        rects
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every grid point of the new window is either in the old window or in a dirty rect, and
+    /// no dirty point is counted twice.
+    fn check_cover(old: &LevelGrid, new: &LevelGrid) {
+        let rects = new.dirty_since(Some(old));
+        let p = new.period_x();
+        let s = new.size as i64;
+        let in_old = |gx: i64, gy: i64| {
+            (gx - old.gx0).rem_euclid(p) < s && (gy - old.gy0) >= 0 && (gy - old.gy0) < s
+        };
+        let mut covered = std::collections::HashSet::new();
+        for r in &rects {
+            for i in 0..r.width as i64 {
+                for j in 0..r.height as i64 {
+                    let key = ((r.gx0 + i).rem_euclid(p), r.gy0 + j);
+                    assert!(covered.insert(key), "point {key:?} written twice");
+                }
+            }
+        }
+        for i in 0..s {
+            for j in 0..s {
+                let (gx, gy) = ((new.gx0 + i).rem_euclid(p), new.gy0 + j);
+                assert!(
+                    in_old(gx, gy) || covered.contains(&(gx, gy)),
+                    "point ({gx},{gy}) not refreshed"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn toroidal_moves_refresh_exactly_the_new_strips() {
+        let size = 32;
+        for (dphi, dtheta) in [(0.01, 0.0), (-0.013, 0.004), (0.0, -0.02), (0.05, 0.05)] {
+            let a = LevelGrid::for_viewer(6, size, 0.5, 1.0, None);
+            let b = LevelGrid::for_viewer(6, size, 0.5 + dphi, 1.0 + dtheta, Some(&a));
+            assert_eq!(a.phi_pow, b.phi_pow);
+            check_cover(&a, &b);
+        }
+    }
+
+    #[test]
+    fn crossing_phi_zero_is_a_small_move() {
+        let size = 64;
+        let a = LevelGrid::for_viewer(10, size, TAU - 1e-5, 1.2, None);
+        let b = LevelGrid::for_viewer(10, size, 1e-5, 1.2, Some(&a));
+        let rects = b.dirty_since(Some(&a));
+        let texels: u64 = rects.iter().map(GridRect::texels).sum();
+        assert!(
+            texels < (size as u64) * 8,
+            "crossing φ=0 refilled {texels} texels"
+        );
+        check_cover(&a, &b);
+    }
+
+    #[test]
+    fn levels_containing_a_pole_span_the_whole_circle() {
+        let g = LevelGrid::for_viewer(8, 256, 1.0, 1e-4, None);
+        assert_eq!(g.phi_pow, 0);
+        let g = LevelGrid::for_viewer(8, 256, 1.0, PI, None);
+        assert_eq!(g.phi_pow, 0);
+        // At the equator a fine level covers a small φ range.
+        let g = LevelGrid::for_viewer(20, 256, 1.0, PI / 2.0, None);
+        assert!(g.phi_pow > 15);
+        // Its φ texel is between one and two θ texels on the ground (anisotropy ≤ 2).
+        let ratio = g.dphi_rad / g.dtheta_rad;
+        assert!((0.99..2.01).contains(&ratio), "ratio {ratio}");
+    }
+}

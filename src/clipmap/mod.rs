@@ -1,0 +1,10 @@
+//! The spherical geometry clipmap (spherical-clipmaps.md): static ring mesh in view space,
+//! per-level map-space texture windows with toroidal updates, and the choice of what to draw.
+
+pub mod levels;
+pub mod mesh;
+pub mod selection;
+pub mod settings;
+
+pub use mesh::{RingMesh, RingVertex};
+pub use settings::{ClipmapSettings, TransformForm};

@@ -1,0 +1,19 @@
+//! globe: a planetary globe viewer built on spherical geometry clipmaps.
+//!
+//! Data flows downward; no module imports one listed below it:
+//!
+//! | module | concern |
+//! | --- | --- |
+//! | [`geo`] | f64 sphere math, camera, the map transform (3 forms) and visibility bounds |
+//! | [`terrain`] | height sources: the analytic test planet (later: the DEM pyramid) |
+//! | [`clipmap`] | ring mesh, level texture windows, level and sector selection |
+//! | [`render`] | wgpu plumbing: context, terrain pass, compute fill, offscreen target |
+//! | [`scenes`] | the named views of DESIGN.md |
+//! | [`ui`] | the window: winit + egui |
+
+pub mod clipmap;
+pub mod geo;
+pub mod render;
+pub mod scenes;
+pub mod terrain;
+pub mod ui;

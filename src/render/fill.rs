@@ -1,0 +1,210 @@
+//! Compute pass that writes new rows/columns of the clipmap level textures (toroidal update,
+//! spherical-clipmaps.md §4.1) from the height source.
+
+use bytemuck::Zeroable;
+
+use crate::clipmap::levels::{GridRect, LevelGrid};
+use crate::terrain::AnalyticPlanet;
+
+use super::shader;
+
+pub mod gpu_data {
+    use bytemuck::{Pod, Zeroable};
+
+    use crate::terrain::analytic::{SCALES, WaveParams};
+
+    /// GPU twin: `FillParams` in `shaders/fill_analytic.wgsl`.
+    #[repr(C)]
+    #[derive(Clone, Copy, Debug, Pod, Zeroable)]
+    pub struct FillParams {
+        pub ref_trig: [f32; 4],
+        pub spacing: [f32; 4],
+        pub slot0: [u32; 2],
+        pub extent: [u32; 2],
+        pub layer: u32,
+        pub size: u32,
+        pub _pad: [u32; 2],
+        pub waves: [WaveParams; SCALES],
+    }
+}
+
+use gpu_data::FillParams;
+
+const WORKGROUP: u32 = 8;
+
+/// Pipeline and per-dispatch parameter buffer of the analytic fill.
+pub struct FillPass {
+    pipeline: wgpu::ComputePipeline,
+    layout: wgpu::BindGroupLayout,
+    params: wgpu::Buffer,
+    stride: u64,
+    capacity: u32,
+    bind_group: Option<wgpu::BindGroup>,
+}
+
+/// One rectangle to write, as the CPU prepared it.
+#[derive(Clone, Copy, Debug)]
+pub struct FillJob {
+    pub grid: LevelGrid,
+    pub rect: GridRect,
+}
+
+impl FillPass {
+    pub fn new(device: &wgpu::Device, capacity: u32) -> Self {
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("fill_analytic.wgsl"),
+            source: wgpu::ShaderSource::Wgsl(shader::assemble(shader::FILL_ANALYTIC).into()),
+        });
+        let size = std::mem::size_of::<FillParams>() as u64;
+        let align = device.limits().min_uniform_buffer_offset_alignment as u64;
+        let stride = size.div_ceil(align) * align;
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("fill layout"),
+            entries: &[
+                wgpu::BindGroupLayoutEntry {
+                    binding: 0,
+                    visibility: wgpu::ShaderStages::COMPUTE,
+                    ty: wgpu::BindingType::Buffer {
+                        ty: wgpu::BufferBindingType::Uniform,
+                        has_dynamic_offset: true,
+                        min_binding_size: wgpu::BufferSize::new(size),
+                    },
+                    count: None,
+                },
+                wgpu::BindGroupLayoutEntry {
+                    binding: 1,
+                    visibility: wgpu::ShaderStages::COMPUTE,
+                    ty: wgpu::BindingType::StorageTexture {
+                        access: wgpu::StorageTextureAccess::WriteOnly,
+                        format: wgpu::TextureFormat::R32Float,
+                        view_dimension: wgpu::TextureViewDimension::D2Array,
+                    },
+                    count: None,
+                },
+            ],
+        });
+        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("fill pipeline layout"),
+            bind_group_layouts: &[Some(&layout)],
+            immediate_size: 0,
+        });
+        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some("fill pipeline"),
+            layout: Some(&pipeline_layout),
+            module: &module,
+            entry_point: Some("cs_main"),
+            compilation_options: Default::default(),
+            cache: None,
+        });
+        let params = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("fill params"),
+            size: stride * capacity as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        Self {
+            pipeline,
+            layout,
+            params,
+            stride,
+            capacity,
+            bind_group: None,
+        }
+    }
+
+    /// Binds the level texture array the pass writes into.
+    pub fn set_target(&mut self, device: &wgpu::Device, heights: &wgpu::TextureView) {
+        self.bind_group = Some(device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("fill bind group"),
+            layout: &self.layout,
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                        buffer: &self.params,
+                        offset: 0,
+                        size: wgpu::BufferSize::new(std::mem::size_of::<FillParams>() as u64),
+                    }),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: wgpu::BindingResource::TextureView(heights),
+                },
+            ],
+        }));
+    }
+
+    /// Writes the parameters of `jobs` and records their dispatches. Returns texels written.
+    /// More jobs than the buffer holds are an error of the caller (bounded by 2 per level).
+    pub fn encode(
+        &self,
+        queue: &wgpu::Queue,
+        encoder: &mut wgpu::CommandEncoder,
+        planet: &AnalyticPlanet,
+        jobs: &[FillJob],
+    ) -> u64 {
+        assert!(
+            jobs.len() as u32 <= self.capacity,
+            "more fill jobs than the parameter buffer holds"
+        );
+        if jobs.is_empty() {
+            return 0;
+        }
+        let bind_group = self
+            .bind_group
+            .as_ref()
+            .expect("fill target set before encoding");
+        let mut bytes = vec![0u8; (self.stride * jobs.len() as u64) as usize];
+        for (i, job) in jobs.iter().enumerate() {
+            let p = fill_params(planet, job);
+            let at = i * self.stride as usize;
+            bytes[at..at + std::mem::size_of::<FillParams>()]
+                .copy_from_slice(bytemuck::bytes_of(&p));
+        }
+        queue.write_buffer(&self.params, 0, &bytes);
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("clipmap fill"),
+            timestamp_writes: None,
+        });
+        pass.set_pipeline(&self.pipeline);
+        let mut texels = 0;
+        for (i, job) in jobs.iter().enumerate() {
+            pass.set_bind_group(0, bind_group, &[(i as u64 * self.stride) as u32]);
+            pass.dispatch_workgroups(
+                job.rect.width.div_ceil(WORKGROUP),
+                job.rect.height.div_ceil(WORKGROUP),
+                1,
+            );
+            texels += job.rect.texels();
+        }
+        texels
+    }
+}
+
+/// Ground spacing used for the band limit of a level: twice its θ spacing, a per-level
+/// constant (so strips written at different times agree) that bounds the φ spacing away from
+/// the poles (anisotropy ≤ 2, see `clipmap::levels`).
+pub fn band_limit_texel_m(grid: &LevelGrid, radius_m: f64) -> f64 {
+    2.0 * grid.dtheta_rad * radius_m
+}
+
+fn fill_params(planet: &AnalyticPlanet, job: &FillJob) -> FillParams {
+    let g = &job.grid;
+    let phi_r = job.rect.gx0 as f64 * g.dphi_rad;
+    let theta_r = job.rect.gy0 as f64 * g.dtheta_rad;
+    let (st, ct) = theta_r.sin_cos();
+    let (sp, cp) = phi_r.sin_cos();
+    let s = g.size as i64;
+    let mut p = FillParams::zeroed();
+    p.ref_trig = [st as f32, ct as f32, sp as f32, cp as f32];
+    p.spacing = [g.dphi_rad as f32, g.dtheta_rad as f32, 0.0, 0.0];
+    p.slot0 = [
+        job.rect.gx0.rem_euclid(s) as u32,
+        job.rect.gy0.rem_euclid(s) as u32,
+    ];
+    p.extent = [job.rect.width, job.rect.height];
+    p.layer = g.level;
+    p.size = g.size;
+    p.waves = planet.gpu_waves(phi_r, theta_r, band_limit_texel_m(g, planet.radius_m));
+    p
+}

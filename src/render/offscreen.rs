@@ -1,0 +1,214 @@
+//! Offscreen rendering and readback: the headless path of `globe render`, the tests and the
+//! benchmarks. The same `TerrainRenderer` draws here and into the window.
+
+use crate::geo::camera::Camera;
+
+use super::terrain::{DEPTH_FORMAT, FrameInfo, TerrainRenderer};
+use super::{GpuContext, RenderError};
+
+/// Colour format of offscreen frames (sRGB, so PNGs look as they do in the window).
+pub const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrgb;
+
+/// A colour + depth target of a fixed size.
+pub struct OffscreenFrame {
+    pub width: u32,
+    pub height: u32,
+    color: wgpu::Texture,
+    depth: wgpu::Texture,
+}
+
+/// One rendered frame read back to the CPU.
+pub struct RenderedFrame {
+    pub width: u32,
+    pub height: u32,
+    /// RGBA8, sRGB, row-major from the top-left.
+    pub rgba: Vec<u8>,
+    /// Reversed-Z depth (near/distance along −z; 0 = sky), row-major from the top-left.
+    pub depth: Vec<f32>,
+    pub info: FrameInfo,
+}
+
+impl RenderedFrame {
+    pub fn save_png(&self, path: &std::path::Path) -> Result<(), image::ImageError> {
+        image::save_buffer(
+            path,
+            &self.rgba,
+            self.width,
+            self.height,
+            image::ColorType::Rgba8,
+        )
+    }
+
+    pub fn depth_at(&self, x: u32, y: u32) -> f32 {
+        self.depth[(y * self.width + x) as usize]
+    }
+}
+
+impl OffscreenFrame {
+    pub fn new(device: &wgpu::Device, width: u32, height: u32) -> Self {
+        let make = |label, format| {
+            device.create_texture(&wgpu::TextureDescriptor {
+                label: Some(label),
+                size: wgpu::Extent3d {
+                    width,
+                    height,
+                    depth_or_array_layers: 1,
+                },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format,
+                usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+                view_formats: &[],
+            })
+        };
+        Self {
+            width,
+            height,
+            color: make("offscreen colour", COLOR_FORMAT),
+            depth: make("offscreen depth", DEPTH_FORMAT),
+        }
+    }
+
+    /// Renders `camera` and reads colour and depth back.
+    pub fn render(
+        &self,
+        ctx: &GpuContext,
+        renderer: &mut TerrainRenderer,
+        camera: &Camera,
+    ) -> Result<RenderedFrame, RenderError> {
+        let mut encoder = ctx.device.create_command_encoder(&Default::default());
+        let info = renderer.prepare(&ctx.queue, &mut encoder, camera, self.width, self.height);
+        let color_view = self.color.create_view(&Default::default());
+        let depth_view = self.depth.create_view(&Default::default());
+        {
+            let [r, g, b] = info.sky_linear;
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("terrain"),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: &color_view,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(wgpu::Color { r, g, b, a: 1.0 }),
+                        store: wgpu::StoreOp::Store,
+                    },
+                })],
+                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                    view: &depth_view,
+                    depth_ops: Some(wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(0.0),
+                        store: wgpu::StoreOp::Store,
+                    }),
+                    stencil_ops: None,
+                }),
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            renderer.draw(&mut pass, &info);
+        }
+        let color_buf = ReadbackBuffer::new(&ctx.device, self.width, self.height, 4);
+        let depth_buf = ReadbackBuffer::new(&ctx.device, self.width, self.height, 4);
+        color_buf.copy_from(&mut encoder, &self.color, wgpu::TextureAspect::All);
+        depth_buf.copy_from(&mut encoder, &self.depth, wgpu::TextureAspect::DepthOnly);
+        ctx.queue.submit([encoder.finish()]);
+        let rgba = color_buf.read(ctx)?;
+        let depth_bytes = depth_buf.read(ctx)?;
+        let depth = depth_bytes
+            .chunks_exact(4)
+            .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+            .collect();
+        Ok(RenderedFrame {
+            width: self.width,
+            height: self.height,
+            rgba,
+            depth,
+            info,
+        })
+    }
+}
+
+/// A mappable buffer holding one texture copy, rows padded to wgpu's 256-byte alignment.
+struct ReadbackBuffer {
+    buffer: wgpu::Buffer,
+    width: u32,
+    height: u32,
+    bytes_per_texel: u32,
+    padded_row: u32,
+}
+
+impl ReadbackBuffer {
+    fn new(device: &wgpu::Device, width: u32, height: u32, bytes_per_texel: u32) -> Self {
+        let row = width * bytes_per_texel;
+        let padded_row =
+            row.div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
+        let buffer = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("readback"),
+            size: padded_row as u64 * height as u64,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        Self {
+            buffer,
+            width,
+            height,
+            bytes_per_texel,
+            padded_row,
+        }
+    }
+
+    fn copy_from(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        texture: &wgpu::Texture,
+        aspect: wgpu::TextureAspect,
+    ) {
+        encoder.copy_texture_to_buffer(
+            wgpu::TexelCopyTextureInfo {
+                texture,
+                mip_level: 0,
+                origin: wgpu::Origin3d::ZERO,
+                aspect,
+            },
+            wgpu::TexelCopyBufferInfo {
+                buffer: &self.buffer,
+                layout: wgpu::TexelCopyBufferLayout {
+                    offset: 0,
+                    bytes_per_row: Some(self.padded_row),
+                    rows_per_image: Some(self.height),
+                },
+            },
+            wgpu::Extent3d {
+                width: self.width,
+                height: self.height,
+                depth_or_array_layers: 1,
+            },
+        );
+    }
+
+    fn read(&self, ctx: &GpuContext) -> Result<Vec<u8>, RenderError> {
+        let (tx, rx) = std::sync::mpsc::channel();
+        self.buffer.map_async(wgpu::MapMode::Read, .., move |r| {
+            let _ = tx.send(r);
+        });
+        ctx.wait_idle()?;
+        rx.recv()
+            .map_err(|e| RenderError::Readback(e.to_string()))?
+            .map_err(|e| RenderError::Readback(e.to_string()))?;
+        let row = (self.width * self.bytes_per_texel) as usize;
+        let mut out = Vec::with_capacity(row * self.height as usize);
+        {
+            let data = self
+                .buffer
+                .get_mapped_range(..)
+                .map_err(|e| RenderError::Readback(e.to_string()))?;
+            for y in 0..self.height as usize {
+                let at = y * self.padded_row as usize;
+                out.extend_from_slice(&data[at..at + row]);
+            }
+        }
+        self.buffer.unmap();
+        Ok(out)
+    }
+}

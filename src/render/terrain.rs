@@ -1,0 +1,429 @@
+//! The terrain pass: the static ring mesh drawn with the level textures (spherical-clipmaps.md).
+//!
+//! Per frame the CPU (f64) decides what to draw and which texels moved; the GPU does the
+//! per-texel (compute fill) and per-vertex (map transform, displacement) work.
+
+use std::f64::consts::PI;
+
+use glam::{DMat4, DVec3};
+use wgpu::util::DeviceExt;
+
+use crate::clipmap::levels::LevelGrid;
+use crate::clipmap::selection::{DrawList, Frustum, LevelSelection, SectorBounds};
+use crate::clipmap::{ClipmapSettings, RingMesh, RingVertex, TransformForm};
+use crate::geo::camera::Camera;
+use crate::geo::map_transform::{Stretch, TransformUniformsF32};
+use crate::geo::{projection, sphere, visibility};
+use crate::terrain::AnalyticPlanet;
+
+use super::RenderError;
+use super::fill::{FillJob, FillPass};
+use super::shader::{self, MAX_LEVELS};
+
+pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
+
+pub mod gpu_data {
+    use bytemuck::{Pod, Zeroable};
+
+    use crate::geo::map_transform::TransformUniformsF32;
+
+    /// GPU twin: `FrameUniforms` in `shaders/terrain.wgsl`.
+    #[repr(C)]
+    #[derive(Clone, Copy, Debug, Pod, Zeroable)]
+    pub struct FrameUniforms {
+        pub clip_from_view: [[f32; 4]; 4],
+        pub transform: TransformUniformsF32,
+        pub sun_view: [f32; 4],
+        pub radius_m: f32,
+        pub eye_height_m: f32,
+        pub blend_fraction: f32,
+        pub texture_size: u32,
+        pub transform_form: u32,
+        pub approx_start_level: u32,
+        pub coarsest_level: u32,
+        pub finest_level: u32,
+        pub overlay: u32,
+        pub _pad: [u32; 3],
+    }
+
+    /// GPU twin: `LevelUniforms` in `shaders/terrain.wgsl`.
+    #[repr(C)]
+    #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+    pub struct LevelUniforms {
+        pub grid_x_viewer: f32,
+        pub grid_y_viewer: f32,
+        pub inv_dphi: f32,
+        pub inv_dtheta: f32,
+        pub dtheta_rad: f32,
+        pub _pad: [f32; 3],
+    }
+}
+
+use gpu_data::{FrameUniforms, LevelUniforms};
+
+/// Debug overlays drawn by the terrain pass.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Overlays {
+    /// Each level in its own colour (`--overlay levels`).
+    pub levels: bool,
+}
+
+impl Overlays {
+    fn bits(self) -> u32 {
+        self.levels as u32
+    }
+}
+
+/// What the renderer decided and did for one frame.
+#[derive(Clone, Debug)]
+pub struct FrameInfo {
+    pub selection: LevelSelection,
+    pub draw: DrawList,
+    /// Texels the compute pass wrote this frame (toroidal updates).
+    pub texels_filled: u64,
+    pub near_m: f64,
+    pub height_above_terrain_m: f64,
+    /// Linear RGB background: sky blue near the ground, black in space.
+    pub sky_linear: [f64; 3],
+}
+
+/// Direction to the sun in the viewer's local frame: 35° above the horizon in the south-east,
+/// so every named scene is lit from the same side (a fixed world sun would leave some dark).
+pub const SUN_ELEVATION_DEG: f64 = 35.0;
+pub const SUN_AZIMUTH_DEG: f64 = 135.0;
+
+pub struct TerrainRenderer {
+    pub settings: ClipmapSettings,
+    pub planet: AnalyticPlanet,
+    pub overlays: Overlays,
+    mesh: RingMesh,
+    bounds: SectorBounds,
+    vertex_buffer: wgpu::Buffer,
+    index_buffer: wgpu::Buffer,
+    frame_buffer: wgpu::Buffer,
+    levels_buffer: wgpu::Buffer,
+    bind_group: wgpu::BindGroup,
+    pipeline: wgpu::RenderPipeline,
+    fill: FillPass,
+    /// The map-space window each level texture currently holds (None: never filled).
+    grids: Vec<Option<LevelGrid>>,
+    _heights: wgpu::Texture,
+}
+
+impl TerrainRenderer {
+    pub fn new(
+        device: &wgpu::Device,
+        settings: ClipmapSettings,
+        planet: AnalyticPlanet,
+        color_format: wgpu::TextureFormat,
+    ) -> Result<Self, RenderError> {
+        settings.validate()?;
+        if settings.levels > MAX_LEVELS {
+            return Err(RenderError::Settings(
+                crate::clipmap::settings::SettingsError::Levels(settings.levels),
+            ));
+        }
+        let mesh = RingMesh::build(&settings);
+        let (hmin, hmax) = planet.height_range_m();
+        let bounds = SectorBounds::new(&mesh, planet.radius_m, hmin, hmax);
+
+        let vertex_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("ring vertices"),
+            contents: bytemuck::cast_slice(&mesh.vertices),
+            usage: wgpu::BufferUsages::VERTEX,
+        });
+        let index_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("ring indices"),
+            contents: bytemuck::cast_slice(&mesh.indices),
+            usage: wgpu::BufferUsages::INDEX,
+        });
+        let frame_buffer = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("frame uniforms"),
+            size: std::mem::size_of::<FrameUniforms>() as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let levels_buffer = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("level uniforms"),
+            size: (std::mem::size_of::<LevelUniforms>() * MAX_LEVELS as usize) as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let heights = device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("clipmap heights"),
+            size: wgpu::Extent3d {
+                width: settings.texture_size,
+                height: settings.texture_size,
+                depth_or_array_layers: settings.levels,
+            },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: wgpu::TextureFormat::R32Float,
+            usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::STORAGE_BINDING,
+            view_formats: &[],
+        });
+        let heights_view = heights.create_view(&wgpu::TextureViewDescriptor {
+            dimension: Some(wgpu::TextureViewDimension::D2Array),
+            ..Default::default()
+        });
+
+        let uniform_entry = |binding| wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
+            ty: wgpu::BindingType::Buffer {
+                ty: wgpu::BufferBindingType::Uniform,
+                has_dynamic_offset: false,
+                min_binding_size: None,
+            },
+            count: None,
+        };
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("terrain layout"),
+            entries: &[
+                uniform_entry(0),
+                uniform_entry(1),
+                wgpu::BindGroupLayoutEntry {
+                    binding: 2,
+                    visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
+                    ty: wgpu::BindingType::Texture {
+                        sample_type: wgpu::TextureSampleType::Float { filterable: false },
+                        view_dimension: wgpu::TextureViewDimension::D2Array,
+                        multisampled: false,
+                    },
+                    count: None,
+                },
+            ],
+        });
+        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("terrain bind group"),
+            layout: &layout,
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: frame_buffer.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: levels_buffer.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 2,
+                    resource: wgpu::BindingResource::TextureView(&heights_view),
+                },
+            ],
+        });
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("terrain.wgsl"),
+            source: wgpu::ShaderSource::Wgsl(shader::assemble(shader::TERRAIN).into()),
+        });
+        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("terrain pipeline layout"),
+            bind_group_layouts: &[Some(&layout)],
+            immediate_size: 0,
+        });
+        let attributes = wgpu::vertex_attr_array![
+            0 => Float32x3, 1 => Float32, 2 => Float32, 3 => Float32, 4 => Uint32, 5 => Float32
+        ];
+        let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("terrain pipeline"),
+            layout: Some(&pipeline_layout),
+            vertex: wgpu::VertexState {
+                module: &module,
+                entry_point: Some("vs_main"),
+                compilation_options: Default::default(),
+                buffers: &[Some(wgpu::VertexBufferLayout {
+                    array_stride: std::mem::size_of::<RingVertex>() as u64,
+                    step_mode: wgpu::VertexStepMode::Vertex,
+                    attributes: &attributes,
+                })],
+            },
+            primitive: wgpu::PrimitiveState {
+                topology: wgpu::PrimitiveTopology::TriangleList,
+                front_face: wgpu::FrontFace::Ccw,
+                cull_mode: Some(wgpu::Face::Back),
+                ..Default::default()
+            },
+            depth_stencil: Some(wgpu::DepthStencilState {
+                format: DEPTH_FORMAT,
+                depth_write_enabled: Some(true),
+                // Reversed-Z: nearer is larger.
+                depth_compare: Some(wgpu::CompareFunction::Greater),
+                stencil: Default::default(),
+                bias: Default::default(),
+            }),
+            multisample: Default::default(),
+            fragment: Some(wgpu::FragmentState {
+                module: &module,
+                entry_point: Some("fs_main"),
+                compilation_options: Default::default(),
+                targets: &[Some(wgpu::ColorTargetState {
+                    format: color_format,
+                    blend: None,
+                    write_mask: wgpu::ColorWrites::ALL,
+                })],
+            }),
+            multiview_mask: None,
+            cache: None,
+        });
+        let mut fill = FillPass::new(device, 2 * settings.levels);
+        fill.set_target(device, &heights_view);
+        let grids = vec![None; settings.levels as usize];
+        Ok(Self {
+            settings,
+            planet,
+            overlays: Overlays::default(),
+            mesh,
+            bounds,
+            vertex_buffer,
+            index_buffer,
+            frame_buffer,
+            levels_buffer,
+            bind_group,
+            pipeline,
+            fill,
+            grids,
+            _heights: heights,
+        })
+    }
+
+    /// The terrain height under the camera, from the height source (f64).
+    pub fn terrain_height_m(&self, lat_deg: f64, lon_deg: f64) -> f64 {
+        let (phi, theta) = sphere::phi_theta_from_lat_lon_deg(lat_deg, lon_deg);
+        self.planet.height_m(sphere::unit_vector(phi, theta))
+    }
+
+    /// Decides what to draw, records the texture updates into `encoder` and writes this
+    /// frame's uniforms. Call before `draw`, with the same viewport.
+    pub fn prepare(
+        &mut self,
+        queue: &wgpu::Queue,
+        encoder: &mut wgpu::CommandEncoder,
+        camera: &Camera,
+        width_px: u32,
+        height_px: u32,
+    ) -> FrameInfo {
+        let radius_m = self.planet.radius_m;
+        let frame = camera.view_frame();
+        let phi_v = frame.phi_v.rem_euclid(std::f64::consts::TAU);
+        let theta_v = frame.theta_v;
+        let height_above_terrain_m =
+            camera.altitude_m - self.terrain_height_m(camera.lat_deg, camera.lon_deg);
+        let near_m = projection::near_plane_m(height_above_terrain_m);
+        let aspect = width_px as f64 / height_px.max(1) as f64;
+        let fov_y_rad = camera.fov_y_rad();
+
+        // Levels: eq. 6 (with the mountain term) and eq. 7–8.
+        let (hmin, hmax) = self.planet.height_range_m();
+        let theta_max = visibility::theta_tilde_max(radius_m, camera.altitude_m, hmin, hmax);
+        let theta_min =
+            visibility::theta_tilde_min(radius_m, height_above_terrain_m, fov_y_rad, height_px);
+        let selection = LevelSelection::new(self.settings.levels, theta_max, theta_min);
+
+        // Sectors inside the frustum.
+        let camera_from_view = camera.view_from_camera().transpose();
+        let eye_view_m = DVec3::new(0.0, 0.0, radius_m + camera.altitude_m);
+        let frustum = Frustum::new(camera_from_view, eye_view_m, fov_y_rad, aspect, near_m);
+        let draw = DrawList::build(&self.mesh, &self.bounds, &selection, &frustum);
+
+        // Texture windows: the drawn levels and the one their outer rings blend into.
+        let first = selection.coarsest.saturating_sub(1);
+        let mut jobs = Vec::new();
+        for level in first..=selection.finest {
+            let old = self.grids[level as usize];
+            let grid = LevelGrid::for_viewer(
+                level,
+                self.settings.texture_size,
+                phi_v,
+                theta_v,
+                old.as_ref(),
+            );
+            for rect in grid.dirty_since(old.as_ref()) {
+                jobs.push(FillJob { grid, rect });
+            }
+            self.grids[level as usize] = Some(grid);
+        }
+        let texels_filled = self.fill.encode(queue, encoder, &self.planet, &jobs);
+
+        let mut levels = vec![LevelUniforms::default(); MAX_LEVELS as usize];
+        for (level, grid) in self.grids.iter().enumerate() {
+            if let Some(g) = grid {
+                let (gx, gy) = g.viewer_texel(phi_v, theta_v);
+                levels[level] = LevelUniforms {
+                    grid_x_viewer: gx as f32,
+                    grid_y_viewer: gy as f32,
+                    inv_dphi: (1.0 / g.dphi_rad) as f32,
+                    inv_dtheta: (1.0 / g.dtheta_rad) as f32,
+                    dtheta_rad: g.dtheta_rad as f32,
+                    _pad: [0.0; 3],
+                };
+            }
+        }
+        queue.write_buffer(&self.levels_buffer, 0, bytemuck::cast_slice(&levels));
+
+        let clip_from_view =
+            camera.clip_from_camera(aspect, near_m) * DMat4::from_mat3(camera_from_view);
+        // The approximation is only valid away from the poles (paper: π/48 < θv < 47π/48).
+        let approx_ok = theta_v > PI / 48.0 && theta_v < 47.0 * PI / 48.0;
+        let approx_start_level = if approx_ok {
+            self.settings.approx_start_level
+        } else {
+            u32::MAX / 2
+        };
+        let (el, az) = (SUN_ELEVATION_DEG.to_radians(), SUN_AZIMUTH_DEG.to_radians());
+        // Local east-north-up → view space: east = ỹ, north = −x̃, up = z̃.
+        let sun_view = DVec3::new(-el.cos() * az.cos(), el.cos() * az.sin(), el.sin());
+        let uniforms = FrameUniforms {
+            clip_from_view: clip_from_view.as_mat4().to_cols_array_2d(),
+            transform: TransformUniformsF32::from_theta_v(theta_v, Stretch::Exact),
+            sun_view: [sun_view.x as f32, sun_view.y as f32, sun_view.z as f32, 0.0],
+            radius_m: radius_m as f32,
+            eye_height_m: camera.altitude_m as f32,
+            blend_fraction: self.settings.blend_fraction,
+            texture_size: self.settings.texture_size,
+            transform_form: self.settings.transform.shader_code(),
+            approx_start_level,
+            coarsest_level: selection.coarsest,
+            finest_level: selection.finest,
+            overlay: self.overlays.bits(),
+            _pad: [0; 3],
+        };
+        queue.write_buffer(&self.frame_buffer, 0, bytemuck::bytes_of(&uniforms));
+
+        FrameInfo {
+            selection,
+            draw,
+            texels_filled,
+            near_m,
+            height_above_terrain_m,
+            sky_linear: sky_colour(camera.altitude_m),
+        }
+    }
+
+    /// Records the terrain draw calls of `info` into `pass`.
+    pub fn draw(&self, pass: &mut wgpu::RenderPass<'_>, info: &FrameInfo) {
+        pass.set_pipeline(&self.pipeline);
+        pass.set_bind_group(0, &self.bind_group, &[]);
+        pass.set_vertex_buffer(0, self.vertex_buffer.slice(..));
+        pass.set_index_buffer(self.index_buffer.slice(..), wgpu::IndexFormat::Uint32);
+        for range in &info.draw.ranges {
+            pass.draw_indexed(range.clone(), 0, 0..1);
+        }
+    }
+
+    pub fn transform(&self) -> TransformForm {
+        self.settings.transform
+    }
+
+    pub fn mesh(&self) -> &RingMesh {
+        &self.mesh
+    }
+}
+
+/// Background: blue sky low down, fading to black between 10 km and 1000 km.
+fn sky_colour(altitude_m: f64) -> [f64; 3] {
+    let t = ((altitude_m.max(1.0).log10() - 4.0) / 2.0).clamp(0.0, 1.0);
+    let low = [0.30, 0.50, 0.80];
+    let high = [0.002, 0.002, 0.006];
+    std::array::from_fn(|i| low[i] + (high[i] - low[i]) * t)
+}

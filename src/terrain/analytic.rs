@@ -1,0 +1,204 @@
+//! The analytic test planet: a sum of "egg-crate" products of plane waves on the unit sphere,
+//!
+//!   h(u) = Σ_k A_k · sin(ω_k·(u·a_k) + c_k) · sin(ω_k·(u·b_k) + d_k),
+//!
+//! with u the unit vector of (φ, θ), ten scales from 4000 km down to 15 m wavelength. Written in
+//! terms of u it is smooth everywhere, poles included, and cheap to evaluate exactly in f64.
+//!
+//! The GPU twin (`shaders/fill_analytic.wgsl`) cannot evaluate ω·(u·a) in f32 (ω reaches 10⁶
+//! per radian), so it evaluates each wave relative to a reference point u_r of the region being
+//! filled: the CPU gives sin/cos of the phase at u_r, and the GPU adds ω·(Δu·a) with Δu formed
+//! from small angle offsets without cancellation (`WaveParams`).
+//!
+//! Band limit: a level texture with ground spacing Δ keeps a scale at full weight when its
+//! wavelength is ≥ 4Δ and drops it below 2Δ (Nyquist), smoothly in between, so coarse levels
+//! never alias (paper §4.2).
+
+use std::f64::consts::TAU;
+
+use bytemuck::{Pod, Zeroable};
+use glam::DVec3;
+
+/// Number of wave-product scales of the planet.
+pub const SCALES: usize = 10;
+
+/// One scale: two plane waves multiplied.
+#[derive(Clone, Copy, Debug)]
+pub struct Scale {
+    pub amplitude_m: f64,
+    pub wavelength_m: f64,
+    /// ω: phase change per unit of u·a (radians per radian of arc along a).
+    pub omega: f64,
+    pub a: DVec3,
+    pub b: DVec3,
+    pub phase_a: f64,
+    pub phase_b: f64,
+}
+
+/// The analytic planet on a sphere of radius `radius_m`.
+#[derive(Clone, Debug)]
+pub struct AnalyticPlanet {
+    pub radius_m: f64,
+    pub scales: [Scale; SCALES],
+}
+
+/// Deterministic pseudo-random numbers (SplitMix64) so the planet is the same everywhere.
+struct SplitMix(u64);
+impl SplitMix {
+    fn next_f64(&mut self) -> f64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^= z >> 31;
+        (z >> 11) as f64 / (1u64 << 53) as f64
+    }
+    fn unit_vector(&mut self) -> DVec3 {
+        let z = 2.0 * self.next_f64() - 1.0;
+        let a = TAU * self.next_f64();
+        let r = (1.0 - z * z).sqrt();
+        DVec3::new(r * a.cos(), r * a.sin(), z)
+    }
+}
+
+impl AnalyticPlanet {
+    /// Amplitudes fall with wavelength roughly like real relief; their sum (7.96 km) bounds
+    /// |h|, so the planet has Everest-like peaks and a few kilometres of "ocean".
+    pub const AMPLITUDES_M: [f64; SCALES] = [
+        3000.0, 2500.0, 1500.0, 600.0, 250.0, 80.0, 20.0, 5.0, 1.5, 0.4,
+    ];
+    /// λ_k = 4000 km · 4^−k.
+    pub const LONGEST_WAVELENGTH_M: f64 = 4.0e6;
+
+    pub fn new(radius_m: f64) -> Self {
+        let mut rng = SplitMix(0x676C_6F62_65); // "globe"
+        let scales = std::array::from_fn(|k| {
+            let wavelength_m = Self::LONGEST_WAVELENGTH_M * 0.25f64.powi(k as i32);
+            Scale {
+                amplitude_m: Self::AMPLITUDES_M[k],
+                wavelength_m,
+                omega: TAU * radius_m / wavelength_m,
+                a: rng.unit_vector(),
+                b: rng.unit_vector(),
+                phase_a: TAU * rng.next_f64(),
+                phase_b: TAU * rng.next_f64(),
+            }
+        });
+        Self { radius_m, scales }
+    }
+
+    pub fn earth() -> Self {
+        Self::new(crate::geo::EARTH_RADIUS_M)
+    }
+
+    /// Bounds of h over the whole planet: ±Σ A_k.
+    pub fn height_range_m(&self) -> (f64, f64) {
+        let s: f64 = self.scales.iter().map(|s| s.amplitude_m).sum();
+        (-s, s)
+    }
+
+    /// The exact height at unit vector `u`, all scales.
+    pub fn height_m(&self, u: DVec3) -> f64 {
+        self.height_band_limited_m(u, 0.0)
+    }
+
+    /// The height as a level texture with ground spacing `texel_m` holds it (band-limited).
+    pub fn height_band_limited_m(&self, u: DVec3, texel_m: f64) -> f64 {
+        self.scales
+            .iter()
+            .map(|s| {
+                let w = band_weight(s.wavelength_m, texel_m);
+                if w == 0.0 {
+                    return 0.0;
+                }
+                w * s.amplitude_m
+                    * (s.omega * u.dot(s.a) + s.phase_a).sin()
+                    * (s.omega * u.dot(s.b) + s.phase_b).sin()
+            })
+            .sum()
+    }
+
+    /// The sum of the amplitudes a texture of spacing `texel_m` leaves out (fully or in part):
+    /// the most the band limit can change a height.
+    pub fn band_limit_bound_m(&self, texel_m: f64) -> f64 {
+        self.scales
+            .iter()
+            .map(|s| (1.0 - band_weight(s.wavelength_m, texel_m)) * s.amplitude_m)
+            .sum()
+    }
+
+    /// Parameters for the GPU to evaluate the band-limited height near `(phi_r, theta_r)`.
+    pub fn gpu_waves(
+        &self,
+        phi_r_rad: f64,
+        theta_r_rad: f64,
+        texel_m: f64,
+    ) -> [WaveParams; SCALES] {
+        let u_r = crate::geo::sphere::unit_vector(phi_r_rad, theta_r_rad);
+        std::array::from_fn(|k| {
+            let s = &self.scales[k];
+            let alpha_a = (s.omega * u_r.dot(s.a) + s.phase_a).rem_euclid(TAU);
+            let alpha_b = (s.omega * u_r.dot(s.b) + s.phase_b).rem_euclid(TAU);
+            let oa = s.a * s.omega;
+            let ob = s.b * s.omega;
+            WaveParams {
+                omega_a: [
+                    oa.x as f32,
+                    oa.y as f32,
+                    oa.z as f32,
+                    (band_weight(s.wavelength_m, texel_m) * s.amplitude_m) as f32,
+                ],
+                omega_b: [ob.x as f32, ob.y as f32, ob.z as f32, 0.0],
+                phases: [
+                    alpha_a.sin() as f32,
+                    alpha_a.cos() as f32,
+                    alpha_b.sin() as f32,
+                    alpha_b.cos() as f32,
+                ],
+            }
+        })
+    }
+}
+
+/// Weight of a scale of wavelength λ in a texture of ground spacing Δ: 1 for λ ≥ 4Δ, 0 for
+/// λ ≤ 2Δ, smoothstep between (paper §4.2: resample at no less than the signal's rate).
+pub fn band_weight(wavelength_m: f64, texel_m: f64) -> f64 {
+    if texel_m <= 0.0 {
+        return 1.0;
+    }
+    let x = ((wavelength_m / texel_m - 2.0) / 2.0).clamp(0.0, 1.0);
+    x * x * (3.0 - 2.0 * x)
+}
+
+/// One scale as the fill shader gets it. GPU twin: `Wave` in `shaders/fill_analytic.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct WaveParams {
+    /// ω·a (xyz) and the band-limited amplitude in metres (w).
+    pub omega_a: [f32; 4],
+    /// ω·b (xyz), w unused.
+    pub omega_b: [f32; 4],
+    /// sin, cos of the phase of wave a at the reference point, then of wave b.
+    pub phases: [f32; 4],
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn heights_are_bounded_and_smooth_at_the_poles() {
+        let p = AnalyticPlanet::earth();
+        let (lo, hi) = p.height_range_m();
+        for i in 0..1000 {
+            let t = i as f64 / 1000.0;
+            let u = crate::geo::sphere::unit_vector(t * 7.0, t * std::f64::consts::PI);
+            let h = p.height_m(u);
+            assert!(h.is_finite() && h >= lo && h <= hi);
+        }
+        // Approaching the pole along two meridians gives the same limit.
+        let a = p.height_m(crate::geo::sphere::unit_vector(0.3, 1e-12));
+        let b = p.height_m(crate::geo::sphere::unit_vector(2.9, 1e-12));
+        assert!((a - b).abs() < 1e-3);
+    }
+}

@@ -1,0 +1,1 @@
+//! The interactive viewer: winit window + egui panel.
