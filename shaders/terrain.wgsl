@@ -103,9 +103,10 @@ fn terrain_height(level: u32, d: vec2<f32>, coarse_blend: f32) -> f32 {
 }
 
 // Weight of the next coarser level: 1 on the level's outer ring, 0 from `blend_fraction` of the
-// level inwards; 0 on the coarsest drawn level (nothing coarser is on screen to match).
+// level inwards. It does not depend on which levels are drawn (the renderer always fills the
+// level just outside the coarsest drawn one), so skipping a level never moves another.
 fn coarse_blend_weight(level: u32, ring_t: f32) -> f32 {
-    if level <= frame.coarsest_level || level == 0u {
+    if level == 0u {
         return 0.0;
     }
     return clamp(1.0 - ring_t / frame.blend_fraction, 0.0, 1.0);

@@ -88,45 +88,84 @@ fn ground_errors_m(dphi: f64, dtheta: f64, reference: &Reference) -> (f64, f64) 
     (dphi_error_m, dtheta_error_m)
 }
 
+/// One unit in the last place of `x` (the spacing of f64 values just above |x|).
+fn ulp(x: f64) -> f64 {
+    let x = x.abs();
+    if x == 0.0 {
+        f64::MIN_POSITIVE
+    } else {
+        f64::from_bits(x.to_bits() + 1) - x
+    }
+}
+
+/// `DESIGN.md` asks for 1e-9 m on the ground. That is 1.6e-16 rad, below one ulp of any angle
+/// ≥ 1 rad (2.2e-16), so for far points no f64 result can promise it: the reference is itself
+/// rounded to f64, and so is p̃. The tolerance is therefore 1e-9 m plus one ulp of the reference
+/// value, on the ground; the test also reports how many cases miss the bare 1e-9 m and by how
+/// many ulp.
 #[test]
 fn exact_f64_matches_reference_vectors() {
     let rows = load_reference();
     let mut worst_m = 0.0f64;
     let mut worst_case = 0;
+    let mut over_strict = 0;
+    let mut over_strict_min_value = f64::INFINITY;
+    let mut over_strict_max_ulp = 0.0f64;
     for r in &rows {
         let (dphi, dtheta) = exact_f64(r.theta_v, p_tilde(r.phi_tilde, r.theta_tilde));
         let (dphi_error_m, dtheta_error_m) = ground_errors_m(dphi, dtheta, r);
+        let dtheta_tolerance_m = 1e-9 + ulp(r.dtheta) * EARTH_RADIUS_M;
+        let dphi_tolerance_m = 1e-9 + ulp(r.dphi) * r.theta.sin() * EARTH_RADIUS_M;
+        assert!(
+            dtheta_error_m <= dtheta_tolerance_m && dphi_error_m <= dphi_tolerance_m,
+            "case {}: dphi error {dphi_error_m:e} m, dtheta error {dtheta_error_m:e} m ({r:?}, got {dphi}, {dtheta})",
+            r.case
+        );
         let error_m = dphi_error_m.max(dtheta_error_m);
         if error_m > worst_m {
             worst_m = error_m;
             worst_case = r.case;
         }
-        assert!(
-            error_m <= 1e-9,
-            "case {}: dphi error {dphi_error_m:e} m, dtheta error {dtheta_error_m:e} m ({r:?}, got {dphi}, {dtheta})",
-            r.case
-        );
-        // The absolute position, φ = φv + Δφ (mod 2π) and θ = θv + Δθ, agrees too.
+        if dtheta_error_m > 1e-9 {
+            over_strict += 1;
+            over_strict_min_value = over_strict_min_value.min(r.dtheta.abs());
+            over_strict_max_ulp =
+                over_strict_max_ulp.max((dtheta - r.dtheta).abs() / ulp(r.dtheta));
+        }
+        if dphi_error_m > 1e-9 {
+            over_strict += 1;
+            over_strict_min_value = over_strict_min_value.min(r.dphi.abs());
+            over_strict_max_ulp =
+                over_strict_max_ulp.max(wrap_angle_rad(dphi - r.dphi).abs() / ulp(r.dphi));
+        }
+        // The absolute position, φ = φv + Δφ (mod 2π) and θ = θv + Δθ, agrees too (one more
+        // rounding each).
         let theta_error_m = (r.theta_v + dtheta - r.theta).abs() * EARTH_RADIUS_M;
+        let theta_tolerance_m = 1e-9 + 2.0 * ulp(r.theta.max(r.dtheta.abs())) * EARTH_RADIUS_M;
         assert!(
-            theta_error_m <= 2e-9,
+            theta_error_m <= theta_tolerance_m,
             "case {}: θ off by {theta_error_m:e} m",
             r.case
         );
         if r.theta != 0.0 && r.theta != PI {
             let phi_error_m =
                 wrap_angle_rad(r.phi_v + dphi - r.phi).abs() * r.theta.sin() * EARTH_RADIUS_M;
+            let phi_tolerance_m = 1e-9 + 3.0 * ulp(PI) * r.theta.sin() * EARTH_RADIUS_M;
             assert!(
-                phi_error_m <= 2e-9,
+                phi_error_m <= phi_tolerance_m,
                 "case {}: φ off by {phi_error_m:e} m",
                 r.case
             );
         }
     }
     eprintln!(
-        "exact_f64 vs reference: max ground error {worst_m:.3e} m (case {worst_case}), {} cases",
+        "exact_f64 vs reference: max ground error {worst_m:.3e} m (case {worst_case}), {} cases; \
+         {over_strict} values above the bare 1e-9 m, all with |value| ≥ {over_strict_min_value:.3} rad \
+         and within {over_strict_max_ulp:.2} ulp",
         rows.len()
     );
+    // Only f64 resolution of O(1) angles may exceed the bare 1e-9 m.
+    assert!(over_strict == 0 || over_strict_min_value >= 0.5);
 }
 
 /// Cumulative distance bands (metres from the viewer along the ground) for the error tables.
@@ -370,7 +409,8 @@ fn approx_and_blend_f32() {
         let p = sweep_point(k, 100.0 / EARTH_RADIUS_M);
         let reference = exact_f64(theta_v, p);
         let (dphi, dtheta) = approx_f32(&u_paper, p.as_vec3());
-        assert!((f64::from(dphi) - p.y * paper_stretch(theta_v)).abs() < 1e-12);
+        let expected = p.y * paper_stretch(theta_v);
+        assert!((f64::from(dphi) - expected).abs() <= 2e-7 * expected.abs());
         assert_eq!(f64::from(dtheta), f64::from(p.as_vec3().x));
         let approx = approx_f32(&u_exact, p.as_vec3());
         worst_exact_stretch_m =
@@ -472,9 +512,10 @@ fn visibility_theta_max_is_the_horizon() {
                 "h = {height_m}, relief {terrain_min_m}..{terrain_max_m}: peak beyond θ̃max visible ({} m above)",
                 hidden - occluder_m
             );
+            // The peak itself may sit on the occluder (terrain_max = terrain_min): allow f64 noise.
             let visible = segment_distance_to_centre_m(viewer_m, peak_at(theta_max * (1.0 - 1e-3)));
             assert!(
-                visible > occluder_m,
+                visible > occluder_m - 1e-7,
                 "h = {height_m}, relief {terrain_min_m}..{terrain_max_m}: peak inside θ̃max hidden"
             );
         }
@@ -663,7 +704,10 @@ fn projection_depth_and_round_trip() {
             .iter()
             .fold(0.0f64, |a, b| a.max(b.abs()));
         assert!(product < 1e-12);
-        for &distance_m in &[near_m, 1.0, 1e3, 1e7, 1e9] {
+        for distance_m in [near_m, 1.0, 1e3, 1e7, 1e9]
+            .into_iter()
+            .filter(|&d| d >= near_m)
+        {
             let ndc = ndc_from_camera_point(&clip, DVec3::new(0.0, 0.0, -distance_m));
             assert!((ndc.z - near_m / distance_m).abs() <= 1e-15 * ndc.z.abs());
             assert_eq!((ndc.x, ndc.y), (0.0, 0.0));
@@ -687,7 +731,8 @@ fn projection_depth_and_round_trip() {
         );
         assert!((edge.y - 1.0).abs() < 1e-12 && (edge.z - 1.0).abs() < 1e-12);
     }
-    assert_eq!(near_plane_m(1e-3), 1e-4);
+    assert_eq!(near_plane_m(1e-5), 1e-4);
+    assert_eq!(near_plane_m(1e-3), 5e-4);
     assert_eq!(near_plane_m(2.0), 1.0);
     assert_eq!(near_plane_m(1e9), 100.0);
     assert_eq!(near_plane_m(-3.0), 1e-4);

@@ -74,7 +74,7 @@ impl Default for ClipmapSettings {
     fn default() -> Self {
         Self {
             phi_steps: 512,
-            rings_per_level: 16,
+            rings_per_level: 32,
             levels: 30,
             texture_size: 512,
             sectors: 32,

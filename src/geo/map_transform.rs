@@ -7,7 +7,7 @@
 //!
 //! | form | Δφ | Δθ | where it is good |
 //! | --- | --- | --- | --- |
-//! | [`exact_f64`] | atan2(p_y, p_x) | three branches, f64 | reference (CPU) |
+//! | [`exact_f64`] | atan2(p_y, p_x) | three branches + far-point refinement, f64 | reference (CPU) |
 //! | [`direct_f32`] (eq. 3–4) | atan2(p_y, p_x) | acos(p_z) − θv | far rings only: cancels near the viewer and the poles |
 //! | [`stable_f32`] (`DESIGN.md`) | atan2(p_y, p_x) | three branches, no cancellation | everywhere |
 //! | [`approx_f32`] (eq. 11, 14) | p̃y·stretch | p̃x | inner rings, π/48 < θv < 47π/48 |
@@ -37,7 +37,7 @@
 //! (north) or π − θ (south) is small and atan2(ρ, ±p_z) computes it to full relative precision.
 
 use glam::{DVec3, Vec3};
-use std::f64::consts::PI;
+use std::f64::consts::{FRAC_PI_2, PI};
 
 /// The low part of π: `PI + PI_LO` is π to about 1e-32, so `(PI − θv) + PI_LO` is π − θv to full
 /// relative precision even at θv = `PI` (the f64 south pole, 1.2e-16 rad = 0.8 nm from it).
@@ -85,10 +85,14 @@ pub fn world_from_view_point(theta_v_rad: f64, p_tilde: DVec3) -> DVec3 {
 /// Accurate f64 map transform: (Δφ, Δθ) = (φ − φv, θ − θv) for the unit view-space point
 /// `p_tilde`, Δφ ∈ (−π, π], Δθ ∈ [−π, π].
 ///
-/// The three-branch form of `DESIGN.md` (derivation in the module docs) evaluated in f64. With
-/// p̃ exact it is within a few ulp of the true values at every distance, poles included; it is the
-/// reference the f32 forms are measured against. At the poles (θ = 0 or π) Δφ is whatever atan2
-/// gives and carries no meaning.
+/// `DESIGN.md`'s cancellation-free form (derivation in the module docs) evaluated in f64, with one
+/// refinement for far points: its viewer-side branch is used only while |Δθ| ≤ π/4; elsewhere θ is
+/// measured from whichever of 0, π/2 or π is nearest (so the atan2 result is at most π/4) and the
+/// constant minus θv is carried in double-double, leaving a single final rounding. Near the viewer
+/// the error is O(ulp·θ̃); far away it is within about one ulp of the result (1.4e-9 m on Earth at
+/// |Δθ| ≈ 1.5, 2.8e-9 m at ≈ 3, which is f64's own resolution there), poles and antipode included.
+/// It is the reference the f32 forms are measured against. At the poles (θ = 0 or π) Δφ is whatever
+/// atan2 gives and carries no meaning.
 pub fn exact_f64(theta_v_rad: f64, p_tilde: DVec3) -> (f64, f64) {
     let (sin_theta_v, cos_theta_v) = theta_v_rad.sin_cos();
     // Products are fused so p_x keeps full precision when its two terms nearly cancel (points
@@ -97,17 +101,44 @@ pub fn exact_f64(theta_v_rad: f64, p_tilde: DVec3) -> (f64, f64) {
     let p_y = p_tilde.y;
     let p_z = (-sin_theta_v).mul_add(p_tilde.x, cos_theta_v * p_tilde.z);
     let rho = p_x.hypot(p_y);
-    let dtheta_rad = if p_x > 0.0 {
+    let dphi_rad = p_y.atan2(p_x);
+    if p_x > 0.0 {
         let q = p_y * p_y / (rho + p_x);
-        cos_theta_v
-            .mul_add(q, p_tilde.x)
-            .atan2(sin_theta_v.mul_add(q, p_tilde.z))
-    } else if p_z > 0.0 {
+        let sin_dtheta = cos_theta_v.mul_add(q, p_tilde.x);
+        let cos_dtheta = sin_theta_v.mul_add(q, p_tilde.z);
+        if sin_dtheta.abs() <= cos_dtheta {
+            return (dphi_rad, sin_dtheta.atan2(cos_dtheta));
+        }
+    }
+    let dtheta_rad = if p_z >= rho {
+        // θ ≤ π/4.
         rho.atan2(p_z) - theta_v_rad
+    } else if -p_z >= rho {
+        // θ ≥ 3π/4: θ = π − atan2(ρ, −p_z).
+        constant_minus_two(PI, PI_LO, theta_v_rad, rho.atan2(-p_z))
     } else {
-        ((PI - theta_v_rad) + PI_LO) - rho.atan2(-p_z)
+        // π/4 < θ < 3π/4: θ = π/2 − atan2(p_z, ρ).
+        constant_minus_two(FRAC_PI_2, FRAC_PI_2_LO, theta_v_rad, p_z.atan2(rho))
     };
-    (p_y.atan2(p_x), dtheta_rad)
+    (dphi_rad, dtheta_rad)
+}
+
+/// The low part of π/2 (see [`PI_LO`]).
+const FRAC_PI_2_LO: f64 = 0.5 * PI_LO;
+
+/// Knuth's two-sum: a + b = sum + error exactly.
+fn two_sum(a: f64, b: f64) -> (f64, f64) {
+    let sum = a + b;
+    let b_part = sum - a;
+    let error = (a - (sum - b_part)) + (b - b_part);
+    (sum, error)
+}
+
+/// (constant_hi + constant_lo) − a − b with a single significant rounding at the end.
+fn constant_minus_two(constant_hi: f64, constant_lo: f64, a: f64, b: f64) -> f64 {
+    let (partial, error_a) = two_sum(constant_hi, -a);
+    let (result, error_b) = two_sum(partial, -b);
+    result + (error_a + error_b + constant_lo)
 }
 
 /// How the per-frame stretch of the approximation (eq. 11) is computed on the CPU.
@@ -197,6 +228,42 @@ impl TransformUniformsF32 {
     }
 }
 
+/// Twin of `atan2_precise` in `shaders/common/map_transform.wgsl`, line by line: atan2 with
+/// ~1 ulp relative error for small angles on every GPU (Vulkan allows a driver's atan2 4096 ulp,
+/// and lavapipe's misses 1 cm at 1 km). Range reduction to |t| ≤ tan(π/12) via
+/// atan t = π/6 + atan((√3t − 1)/(√3 + t)), then the odd Taylor series to t¹³.
+#[allow(clippy::excessive_precision, clippy::approx_constant)]
+pub fn atan2_precise_f32(y: f32, x: f32) -> f32 {
+    let ax = x.abs();
+    let ay = y.abs();
+    let hi = ax.max(ay);
+    if hi == 0.0 {
+        return 0.0;
+    }
+    let mut t = ax.min(ay) / hi;
+    let mut base = 0.0;
+    if t > 0.26794919 {
+        t = (1.7320508 * t - 1.0) / (1.7320508 + t);
+        base = 0.52359878;
+    }
+    let t2 = t * t;
+    let series = 1.0
+        + t2 * (-0.33333334
+            + t2 * (0.2
+                + t2 * (-0.14285715 + t2 * (0.11111111 + t2 * (-0.09090909 + t2 * 0.07692308)))));
+    let mut r = base + t * series;
+    if ay > ax {
+        r = 1.5707964 - r;
+    }
+    if x < 0.0 {
+        r = 3.1415927 - r;
+    }
+    if y < 0.0 {
+        r = -r;
+    }
+    r
+}
+
 /// The seam rule of §4.4, twin of `map_transform_seam_dphi`.
 ///
 /// The ring mesh duplicates its vertices on the meridian φ̃ = 0/π (p̃y = 0 exactly). Beyond a pole
@@ -231,7 +298,7 @@ pub fn rotate_f32(u: &TransformUniformsF32, p_tilde: Vec3) -> Vec3 {
 /// rounded rotation can exceed 1 by an ulp (acos would return NaN).
 pub fn direct_f32(u: &TransformUniformsF32, p_tilde: Vec3, seam_side: f32) -> (f32, f32) {
     let p = rotate_f32(u, p_tilde);
-    let dphi = seam_dphi_f32(p.y.atan2(p.x), p.y, p.x, seam_side);
+    let dphi = seam_dphi_f32(atan2_precise_f32(p.y, p.x), p.y, p.x, seam_side);
     let dtheta = p.z.clamp(-1.0, 1.0).acos() - u.theta_v;
     (dphi, dtheta)
 }
@@ -248,13 +315,13 @@ pub fn stable_f32(u: &TransformUniformsF32, p_tilde: Vec3, seam_side: f32) -> (f
     let rho = (p.x * p.x + p.y * p.y).sqrt();
     let dtheta = if p.x > 0.0 {
         let q = p.y * p.y / (rho + p.x);
-        (p_tilde.x + u.cos_theta_v * q).atan2(p_tilde.z + u.sin_theta_v * q)
+        atan2_precise_f32(p_tilde.x + u.cos_theta_v * q, p_tilde.z + u.sin_theta_v * q)
     } else if p.z > 0.0 {
-        rho.atan2(p.z) - u.theta_v
+        atan2_precise_f32(rho, p.z) - u.theta_v
     } else {
-        u.pi_minus_theta_v - rho.atan2(-p.z)
+        u.pi_minus_theta_v - atan2_precise_f32(rho, -p.z)
     };
-    let dphi = seam_dphi_f32(p.y.atan2(p.x), p.y, p.x, seam_side);
+    let dphi = seam_dphi_f32(atan2_precise_f32(p.y, p.x), p.y, p.x, seam_side);
     (dphi, dtheta)
 }
 

@@ -26,9 +26,7 @@ pub const NEAR_PLANE_MAX_M: f64 = 100.0;
 /// against terrain seen from high up; the floor keeps it positive for a camera on the ground
 /// (1 mm in `DESIGN.md`'s stiff cases), or below it, where height is negative.
 pub fn near_plane_m(height_above_terrain_m: f64) -> f64 {
-    (0.5 * height_above_terrain_m)
-        .max(NEAR_PLANE_MIN_M)
-        .min(NEAR_PLANE_MAX_M)
+    (0.5 * height_above_terrain_m).clamp(NEAR_PLANE_MIN_M, NEAR_PLANE_MAX_M)
 }
 
 /// Reversed-Z infinite perspective: clip = (x·f/aspect, y·f, near, −z) with f = 1/tan(fov_y/2),

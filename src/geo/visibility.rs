@@ -69,8 +69,8 @@ mod tests {
 
     #[test]
     fn plain_eq6_without_relief() {
-        let r = 6.371e6;
-        let h = 1e5;
+        let r: f64 = 6.371e6;
+        let h: f64 = 1e5;
         let expected = (r / (r + h)).acos();
         assert!((theta_tilde_max(r, h, 0.0, 0.0) - expected).abs() < 1e-12);
         assert_eq!(theta_tilde_max(r, -5.0, 0.0, 0.0), 0.0);

@@ -96,6 +96,9 @@ pub struct TerrainRenderer {
     pub settings: ClipmapSettings,
     pub planet: AnalyticPlanet,
     pub overlays: Overlays,
+    /// Debug: draw every level of the mesh regardless of the visibility bounds (tests use it to
+    /// show that the levels the bounds skip contribute nothing to the image).
+    pub draw_all_levels: bool,
     mesh: RingMesh,
     bounds: SectorBounds,
     vertex_buffer: wgpu::Buffer,
@@ -273,6 +276,7 @@ impl TerrainRenderer {
             settings,
             planet,
             overlays: Overlays::default(),
+            draw_all_levels: false,
             mesh,
             bounds,
             vertex_buffer,
@@ -318,7 +322,11 @@ impl TerrainRenderer {
         let theta_max = visibility::theta_tilde_max(radius_m, camera.altitude_m, hmin, hmax);
         let theta_min =
             visibility::theta_tilde_min(radius_m, height_above_terrain_m, fov_y_rad, height_px);
-        let selection = LevelSelection::new(self.settings.levels, theta_max, theta_min);
+        let mut selection = LevelSelection::new(self.settings.levels, theta_max, theta_min);
+        if self.draw_all_levels {
+            selection.coarsest = 0;
+            selection.finest = self.settings.levels - 1;
+        }
 
         // Sectors inside the frustum.
         let camera_from_view = camera.view_from_camera().transpose();

@@ -1,0 +1,778 @@
+//! The window: winit's `ApplicationHandler`, the wgpu surface, one frame of terrain + egui, and
+//! the routing of input to the panel or the camera.
+
+use std::collections::HashSet;
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::time::{Instant, SystemTime, UNIX_EPOCH};
+
+use winit::application::ApplicationHandler;
+use winit::dpi::{LogicalSize, PhysicalPosition, PhysicalSize};
+use winit::error::EventLoopError;
+use winit::event::{ElementState, KeyEvent, MouseButton, MouseScrollDelta, WindowEvent};
+use winit::event_loop::{ActiveEventLoop, EventLoop, OwnedDisplayHandle};
+use winit::keyboard::{KeyCode, ModifiersState, PhysicalKey};
+use winit::window::{Window, WindowId};
+
+use crate::geo::camera::Camera;
+use crate::geo::sphere;
+use crate::render::offscreen::{self, OffscreenFrame};
+use crate::render::terrain::DEPTH_FORMAT;
+use crate::render::{FrameInfo, GpuContext, RenderError, TerrainRenderer};
+use crate::scenes::Scene;
+use crate::terrain::AnalyticPlanet;
+
+use super::controls::{self, FlyInput};
+use super::panel::{FrameStats, LiveSettings, MeshDraft, Panel, PanelAction, Readout};
+use super::{UiError, ViewerOptions};
+
+/// Environment variable of the smoke check: screenshot after this many frames, then quit.
+pub const SMOKE_FRAMES_ENV: &str = "GLOBE_VIEWER_SMOKE_FRAMES";
+
+/// Runs the viewer; `smoke_frames` (from [`SMOKE_FRAMES_ENV`] when None) ends it after a
+/// screenshot.
+pub(super) fn run(
+    scene: &'static Scene,
+    options: ViewerOptions,
+    smoke_frames: Option<u64>,
+) -> Result<(), UiError> {
+    let smoke_frames = smoke_frames.or_else(|| {
+        std::env::var(SMOKE_FRAMES_ENV)
+            .ok()
+            .and_then(|v| v.trim().parse().ok())
+    });
+    let event_loop = create_event_loop()?;
+    let mut app = App::new(
+        scene,
+        options,
+        event_loop.owned_display_handle(),
+        smoke_frames,
+    );
+    let result = event_loop.run_app(&mut app);
+    // Release the GPU objects before the event loop (and its X connection) goes away.
+    app.gpu = None;
+    if let Some(error) = app.error.take() {
+        return Err(error);
+    }
+    result.map_err(|e| UiError::Window(e.to_string()))
+}
+
+/// Opens the X11 event loop, mapping every way of not having a display to `NoDisplay`.
+fn create_event_loop() -> Result<EventLoop<()>, UiError> {
+    use winit::platform::x11::EventLoopBuilderExtX11;
+    // winit returns errors for a missing or unreachable X server; the unwind guard is only a
+    // second line of defence so the viewer never takes the process down for want of a display.
+    let built = std::panic::catch_unwind(|| {
+        EventLoop::builder()
+            .with_x11()
+            // Tests run the viewer off the main thread; X11 has no main-thread requirement.
+            .with_any_thread(true)
+            .build()
+    });
+    match built {
+        Ok(Ok(event_loop)) => Ok(event_loop),
+        Ok(Err(e @ (EventLoopError::Os(_) | EventLoopError::NotSupported(_)))) => {
+            Err(UiError::NoDisplay(e.to_string()))
+        }
+        Ok(Err(e)) => Err(UiError::Window(e.to_string())),
+        Err(panic) => {
+            let text = panic
+                .downcast_ref::<String>()
+                .cloned()
+                .or_else(|| panic.downcast_ref::<&str>().map(|s| s.to_string()))
+                .unwrap_or_else(|| "the window system panicked".to_owned());
+            Err(UiError::NoDisplay(text))
+        }
+    }
+}
+
+/// Terrain height at (lat, lon) of `planet`, as `TerrainRenderer::terrain_height_m` computes it.
+fn terrain_height_m(planet: &AnalyticPlanet, lat_deg: f64, lon_deg: f64) -> f64 {
+    let (phi, theta) = sphere::phi_theta_from_lat_lon_deg(lat_deg, lon_deg);
+    planet.height_m(sphere::unit_vector(phi, theta))
+}
+
+/// Everything that needs the window: created in `resumed`.
+struct Gpu {
+    // Declared (and so dropped) before `window`.
+    egui_renderer: egui_wgpu::Renderer,
+    egui_state: egui_winit::State,
+    terrain: TerrainRenderer,
+    depth: wgpu::TextureView,
+    surface: wgpu::Surface<'static>,
+    config: wgpu::SurfaceConfiguration,
+    ctx: GpuContext,
+    adapter_text: String,
+    surface_text: String,
+    window: Arc<Window>,
+}
+
+impl Gpu {
+    fn new(
+        event_loop: &ActiveEventLoop,
+        display: &OwnedDisplayHandle,
+        settings: crate::clipmap::ClipmapSettings,
+        planet: AnalyticPlanet,
+        overlay_levels: bool,
+    ) -> Result<Self, UiError> {
+        let attributes = Window::default_attributes()
+            .with_title("globe")
+            .with_inner_size(LogicalSize::new(1280.0, 800.0));
+        let window = Arc::new(
+            event_loop
+                .create_window(attributes)
+                .map_err(|e| UiError::NoDisplay(format!("could not open a window: {e}")))?,
+        );
+        let instance = wgpu::Instance::new(
+            wgpu::InstanceDescriptor::new_with_display_handle_from_env(Box::new(display.clone())),
+        );
+        let surface = instance
+            .create_surface(wgpu::SurfaceTarget::from_window_without_display(
+                window.clone(),
+            ))
+            .map_err(|e| UiError::Surface(e.to_string()))?;
+        let adapter = pollster::block_on(GpuContext::pick_adapter(&instance, Some(&surface)))?;
+        let ctx = GpuContext::with_adapter(instance, adapter)?;
+        let size = window.inner_size();
+        let config = surface_config(&surface, &ctx.adapter, size)?;
+        surface.configure(&ctx.device, &config);
+        let depth = depth_view(&ctx.device, config.width, config.height);
+
+        let mut terrain = TerrainRenderer::new(&ctx.device, settings, planet, config.format)?;
+        terrain.overlays.levels = overlay_levels;
+
+        let max_texture_side = ctx.device.limits().max_texture_dimension_2d as usize;
+        let egui_ctx = egui::Context::default();
+        let egui_state = egui_winit::State::new(
+            egui_ctx,
+            egui::ViewportId::ROOT,
+            &window,
+            Some(window.scale_factor() as f32),
+            window.theme(),
+            Some(max_texture_side),
+        );
+        let egui_renderer = egui_wgpu::Renderer::new(
+            &ctx.device,
+            config.format,
+            egui_wgpu::RendererOptions::default(),
+        );
+        let adapter_text = ctx.adapter_description();
+        let surface_text = format!("surface {:?}, {:?}", config.format, config.present_mode);
+        Ok(Self {
+            egui_renderer,
+            egui_state,
+            terrain,
+            depth,
+            surface,
+            config,
+            ctx,
+            adapter_text,
+            surface_text,
+            window,
+        })
+    }
+
+    /// Reconfigures the surface (and the depth buffer) at the window's current size.
+    fn resize(&mut self, size: PhysicalSize<u32>) {
+        if size.width == 0 || size.height == 0 {
+            return; // minimised: keep the old configuration until the window is back
+        }
+        self.config.width = size.width;
+        self.config.height = size.height;
+        self.surface.configure(&self.ctx.device, &self.config);
+        self.depth = depth_view(&self.ctx.device, size.width, size.height);
+    }
+
+    /// Replaces a lost surface.
+    fn recreate_surface(&mut self) -> Result<(), UiError> {
+        self.surface = self
+            .ctx
+            .instance
+            .create_surface(wgpu::SurfaceTarget::from_window_without_display(
+                self.window.clone(),
+            ))
+            .map_err(|e| UiError::Surface(e.to_string()))?;
+        self.surface.configure(&self.ctx.device, &self.config);
+        Ok(())
+    }
+
+    /// A renderer with `settings`, or the GPU's complaint (out of memory, limits) as text.
+    fn build_renderer(
+        &self,
+        settings: crate::clipmap::ClipmapSettings,
+        format: wgpu::TextureFormat,
+    ) -> Result<TerrainRenderer, String> {
+        let device = &self.ctx.device;
+        let oom = device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+        let validation = device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let built = TerrainRenderer::new(device, settings, self.terrain.planet.clone(), format);
+        let validation = pollster::block_on(validation.pop());
+        let oom = pollster::block_on(oom.pop());
+        let mut renderer = built.map_err(|e| e.to_string())?;
+        if let Some(e) = validation.or(oom) {
+            return Err(e.to_string());
+        }
+        renderer.overlays = self.terrain.overlays;
+        Ok(renderer)
+    }
+}
+
+/// sRGB if the surface has it (Rgba8UnormSrgb first: screenshots then reuse the renderer),
+/// vsync presentation.
+fn surface_config(
+    surface: &wgpu::Surface<'_>,
+    adapter: &wgpu::Adapter,
+    size: PhysicalSize<u32>,
+) -> Result<wgpu::SurfaceConfiguration, UiError> {
+    let caps = surface.get_capabilities(adapter);
+    let mut config = surface
+        .get_default_config(adapter, size.width.max(1), size.height.max(1))
+        .ok_or_else(|| {
+            UiError::Surface(format!(
+                "the window surface is not supported by {}",
+                adapter.get_info().name
+            ))
+        })?;
+    let preferred = [offscreen::COLOR_FORMAT, wgpu::TextureFormat::Bgra8UnormSrgb];
+    config.format = preferred
+        .into_iter()
+        .find(|f| caps.formats.contains(f))
+        .or_else(|| caps.formats.iter().copied().find(|f| f.is_srgb()))
+        .unwrap_or(config.format);
+    config.present_mode = if caps.present_modes.contains(&wgpu::PresentMode::Fifo) {
+        wgpu::PresentMode::Fifo
+    } else {
+        wgpu::PresentMode::AutoVsync
+    };
+    Ok(config)
+}
+
+fn depth_view(device: &wgpu::Device, width: u32, height: u32) -> wgpu::TextureView {
+    device
+        .create_texture(&wgpu::TextureDescriptor {
+            label: Some("window depth"),
+            size: wgpu::Extent3d {
+                width: width.max(1),
+                height: height.max(1),
+                depth_or_array_layers: 1,
+            },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: DEPTH_FORMAT,
+            usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
+            view_formats: &[],
+        })
+        .create_view(&Default::default())
+}
+
+/// What a mouse drag does.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Drag {
+    Look,
+    Pan,
+}
+
+/// Mouse and keyboard state between events.
+#[derive(Default)]
+struct Input {
+    keys: HashSet<KeyCode>,
+    modifiers: ModifiersState,
+    cursor: Option<PhysicalPosition<f64>>,
+    drag: Option<(MouseButton, Drag)>,
+}
+
+impl Input {
+    fn release_all(&mut self) {
+        self.keys.clear();
+        self.drag = None;
+    }
+
+    fn fly_input(&self) -> FlyInput {
+        let axis = |plus: KeyCode, minus: KeyCode| {
+            f64::from(u8::from(self.keys.contains(&plus)))
+                - f64::from(u8::from(self.keys.contains(&minus)))
+        };
+        FlyInput {
+            forward: axis(KeyCode::KeyW, KeyCode::KeyS),
+            right: axis(KeyCode::KeyD, KeyCode::KeyA),
+            up: axis(KeyCode::KeyE, KeyCode::KeyQ),
+            turn: axis(KeyCode::ArrowRight, KeyCode::ArrowLeft),
+            pitch: axis(KeyCode::ArrowUp, KeyCode::ArrowDown),
+            boost: self.modifiers.shift_key(),
+        }
+    }
+}
+
+struct App {
+    display: OwnedDisplayHandle,
+    options: ViewerOptions,
+    planet: AnalyticPlanet,
+    camera: Camera,
+    gpu: Option<Gpu>,
+    error: Option<UiError>,
+    input: Input,
+    panel: Panel,
+    stats: FrameStats,
+    last_frame: Option<Instant>,
+    last_info: Option<FrameInfo>,
+    frames: u64,
+    smoke_frames: Option<u64>,
+}
+
+impl App {
+    fn new(
+        scene: &'static Scene,
+        options: ViewerOptions,
+        display: OwnedDisplayHandle,
+        smoke_frames: Option<u64>,
+    ) -> Self {
+        let planet = AnalyticPlanet::earth();
+        let mut camera = scene.camera(|lat, lon| terrain_height_m(&planet, lat, lon));
+        controls::normalize(&mut camera, |lat, lon| terrain_height_m(&planet, lat, lon));
+        let panel = Panel::new(&options.settings);
+        Self {
+            display,
+            options,
+            planet,
+            camera,
+            gpu: None,
+            error: None,
+            input: Input::default(),
+            panel,
+            stats: FrameStats::default(),
+            last_frame: None,
+            last_info: None,
+            frames: 0,
+            smoke_frames,
+        }
+    }
+
+    fn fail(&mut self, event_loop: &ActiveEventLoop, error: UiError) {
+        eprintln!("globe viewer: {error}");
+        self.error.get_or_insert(error);
+        event_loop.exit();
+    }
+
+    fn radius_m(&self) -> f64 {
+        self.planet.radius_m
+    }
+
+    /// One frame: fly, terrain, panel, present; then carry out the panel's actions.
+    fn redraw(&mut self, event_loop: &ActiveEventLoop) {
+        let now = Instant::now();
+        let dt_s = self
+            .last_frame
+            .map_or(0.0, |t| now.duration_since(t).as_secs_f64());
+        self.last_frame = Some(now);
+        self.stats.record(dt_s);
+
+        let planet = &self.planet;
+        let terrain = |lat: f64, lon: f64| terrain_height_m(planet, lat, lon);
+        let radius_m = planet.radius_m;
+        controls::fly(
+            &mut self.camera,
+            &self.input.fly_input(),
+            dt_s,
+            radius_m,
+            terrain,
+        );
+        let terrain_here = terrain(self.camera.lat_deg, self.camera.lon_deg);
+
+        let Some(gpu) = self.gpu.as_mut() else {
+            return;
+        };
+        let (surface_texture, suboptimal) = match gpu.surface.get_current_texture() {
+            wgpu::CurrentSurfaceTexture::Success(t) => (t, false),
+            wgpu::CurrentSurfaceTexture::Suboptimal(t) => (t, true),
+            wgpu::CurrentSurfaceTexture::Timeout | wgpu::CurrentSurfaceTexture::Occluded => {
+                return;
+            }
+            wgpu::CurrentSurfaceTexture::Outdated => {
+                let size = gpu.window.inner_size();
+                gpu.resize(size);
+                return;
+            }
+            wgpu::CurrentSurfaceTexture::Lost => {
+                if let Err(e) = gpu.recreate_surface() {
+                    self.fail(event_loop, e);
+                }
+                return;
+            }
+            wgpu::CurrentSurfaceTexture::Validation => {
+                self.panel.message = Some("the surface reported a validation error".into());
+                return;
+            }
+        };
+        let (width, height) = (gpu.config.width, gpu.config.height);
+        let device = &gpu.ctx.device;
+        let queue = &gpu.ctx.queue;
+        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+            label: Some("window frame"),
+        });
+        let info = gpu
+            .terrain
+            .prepare(queue, &mut encoder, &self.camera, width, height);
+
+        // The panel, with this frame's figures.
+        let raw_input = gpu.egui_state.take_egui_input(&gpu.window);
+        let mut live = LiveSettings {
+            transform: gpu.terrain.settings.transform,
+            approx_start_level: gpu.terrain.settings.approx_start_level,
+            overlay_levels: gpu.terrain.overlays.levels,
+        };
+        let readout = Readout {
+            stats: &self.stats,
+            info: Some(&info),
+            camera: &self.camera,
+            terrain_height_m: terrain_here,
+            active: &gpu.terrain.settings,
+            adapter: &gpu.adapter_text,
+            surface: &gpu.surface_text,
+            max_texture_size: device.limits().max_texture_dimension_2d,
+        };
+        let panel = &mut self.panel;
+        let mut actions = Vec::new();
+        let egui_ctx = gpu.egui_state.egui_ctx().clone();
+        let mut output = egui_ctx.run_ui(raw_input, |ui| {
+            actions = panel.show(ui, &readout, &mut live);
+        });
+        // Takes effect from the next frame's uniforms.
+        gpu.terrain.settings.transform = live.transform;
+        gpu.terrain.settings.approx_start_level = live.approx_start_level;
+        gpu.terrain.overlays.levels = live.overlay_levels;
+        gpu.egui_state
+            .handle_platform_output(&gpu.window, output.platform_output);
+        let paint_jobs = egui_ctx.tessellate(output.shapes, output.pixels_per_point);
+        let screen = egui_wgpu::ScreenDescriptor {
+            size_in_pixels: [width, height],
+            pixels_per_point: output.pixels_per_point,
+        };
+        // Every delta must be applied (egui asserts that none is dropped).
+        let mut textures = std::mem::take(&mut output.textures_delta);
+        for (id, deltas) in textures.set.drain() {
+            for delta in &deltas {
+                gpu.egui_renderer.update_texture(device, queue, id, delta);
+            }
+        }
+        let egui_commands =
+            gpu.egui_renderer
+                .update_buffers(device, queue, &mut encoder, &paint_jobs, &screen);
+
+        let view = surface_texture.texture.create_view(&Default::default());
+        {
+            let [r, g, b] = info.sky_linear;
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("terrain"),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: &view,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(wgpu::Color { r, g, b, a: 1.0 }),
+                        store: wgpu::StoreOp::Store,
+                    },
+                })],
+                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                    view: &gpu.depth,
+                    depth_ops: Some(wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(0.0),
+                        store: wgpu::StoreOp::Discard,
+                    }),
+                    stencil_ops: None,
+                }),
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            gpu.terrain.draw(&mut pass, &info);
+        }
+        {
+            let pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("egui"),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: &view,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Load,
+                        store: wgpu::StoreOp::Store,
+                    },
+                })],
+                depth_stencil_attachment: None,
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            gpu.egui_renderer
+                .render(&mut pass.forget_lifetime(), &paint_jobs, &screen);
+        }
+        queue.submit(egui_commands.into_iter().chain([encoder.finish()]));
+        gpu.window.pre_present_notify();
+        queue.present(surface_texture);
+        for id in textures.free.drain() {
+            gpu.egui_renderer.free_texture(&id);
+        }
+        if suboptimal {
+            let size = gpu.window.inner_size();
+            gpu.resize(size);
+        }
+        self.last_info = Some(info);
+        self.frames += 1;
+
+        for action in actions {
+            self.apply(action);
+        }
+        if let Some(limit) = self.smoke_frames
+            && self.frames >= limit
+        {
+            self.finish_smoke(event_loop);
+        }
+    }
+
+    fn apply(&mut self, action: PanelAction) {
+        match action {
+            PanelAction::ApplyMesh(settings) => self.rebuild_renderer(settings),
+            PanelAction::GoToScene(scene) => {
+                let planet = &self.planet;
+                let terrain = |lat: f64, lon: f64| terrain_height_m(planet, lat, lon);
+                self.camera = scene.camera(terrain);
+                controls::normalize(&mut self.camera, terrain);
+                self.panel.message = Some(format!("scene '{}'", scene.name));
+            }
+            PanelAction::Screenshot => {
+                let _ = self.screenshot();
+            }
+        }
+    }
+
+    fn rebuild_renderer(&mut self, settings: crate::clipmap::ClipmapSettings) {
+        let Some(gpu) = self.gpu.as_mut() else {
+            return;
+        };
+        // Keep the live settings (transform form, approximation level) of the old renderer.
+        let settings = crate::clipmap::ClipmapSettings {
+            transform: gpu.terrain.settings.transform,
+            approx_start_level: gpu.terrain.settings.approx_start_level,
+            ..settings
+        };
+        match gpu.build_renderer(settings.clone(), gpu.config.format) {
+            Ok(renderer) => {
+                gpu.terrain = renderer;
+                self.panel.draft = MeshDraft::from_settings(&settings);
+                self.panel.message = Some(format!(
+                    "mesh rebuilt: n = {}, m = {}, texture {}, {} sectors",
+                    settings.phi_steps,
+                    settings.rings_per_level,
+                    settings.texture_size,
+                    settings.sectors
+                ));
+                self.options.settings = settings;
+            }
+            Err(e) => {
+                self.panel.message = Some(format!("could not apply the mesh settings: {e}"));
+            }
+        }
+    }
+
+    /// Renders the current view offscreen at window size and saves it as
+    /// `globe-screenshot-<unix seconds>.png` in the current directory.
+    fn screenshot(&mut self) -> Result<PathBuf, UiError> {
+        let result = self.try_screenshot();
+        match &result {
+            Ok(path) => {
+                println!("screenshot saved to {}", path.display());
+                self.panel.last_screenshot = Some(path.display().to_string());
+            }
+            Err(e) => {
+                eprintln!("globe viewer: {e}");
+                self.panel.message = Some(e.to_string());
+            }
+        }
+        result
+    }
+
+    fn try_screenshot(&mut self) -> Result<PathBuf, UiError> {
+        let Some(gpu) = self.gpu.as_mut() else {
+            return Err(UiError::Screenshot("no window yet".into()));
+        };
+        let seconds = SystemTime::now()
+            .duration_since(UNIX_EPOCH)
+            .map_or(0, |d| d.as_secs());
+        let mut path = PathBuf::from(format!("globe-screenshot-{seconds}.png"));
+        let mut n = 2;
+        while path.exists() {
+            path = PathBuf::from(format!("globe-screenshot-{seconds}-{n}.png"));
+            n += 1;
+        }
+        let target = OffscreenFrame::new(&gpu.ctx.device, gpu.config.width, gpu.config.height);
+        let frame = if gpu.config.format == offscreen::COLOR_FORMAT {
+            target.render(&gpu.ctx, &mut gpu.terrain, &self.camera)?
+        } else {
+            // The terrain pipeline is built for the surface format; a one-off renderer for the
+            // offscreen format draws the same view.
+            let mut renderer = gpu
+                .build_renderer(gpu.terrain.settings.clone(), offscreen::COLOR_FORMAT)
+                .map_err(|e| UiError::Render(RenderError::Gpu(e)))?;
+            target.render(&gpu.ctx, &mut renderer, &self.camera)?
+        };
+        frame
+            .save_png(&path)
+            .map_err(|e| UiError::Screenshot(format!("{}: {e}", path.display())))?;
+        Ok(path)
+    }
+
+    fn finish_smoke(&mut self, event_loop: &ActiveEventLoop) {
+        match self.screenshot() {
+            Ok(path) => {
+                let info = self.last_info.as_ref();
+                println!(
+                    "smoke: {} frames, {:.2} ms/frame, levels {}..{}, {} triangles, camera {:?}, screenshot {}",
+                    self.frames,
+                    self.stats.frame_ms,
+                    info.map_or(0, |i| i.selection.coarsest),
+                    info.map_or(0, |i| i.selection.finest),
+                    info.map_or(0, |i| i.draw.triangles),
+                    self.camera,
+                    path.display()
+                );
+                event_loop.exit();
+            }
+            Err(e) => self.fail(event_loop, e),
+        }
+    }
+
+    fn on_key(&mut self, event: &KeyEvent, egui_wants_keys: bool) {
+        let PhysicalKey::Code(code) = event.physical_key else {
+            return;
+        };
+        match event.state {
+            ElementState::Pressed => {
+                if egui_wants_keys {
+                    return;
+                }
+                if !event.repeat && matches!(code, KeyCode::F12 | KeyCode::KeyP) {
+                    let _ = self.screenshot();
+                }
+                self.input.keys.insert(code);
+            }
+            ElementState::Released => {
+                self.input.keys.remove(&code);
+            }
+        }
+    }
+
+    fn on_mouse_button(&mut self, button: MouseButton, state: ElementState, over_egui: bool) {
+        match state {
+            ElementState::Pressed => {
+                if over_egui || self.input.drag.is_some() {
+                    return;
+                }
+                let drag = match button {
+                    MouseButton::Left if self.input.modifiers.shift_key() => Drag::Pan,
+                    MouseButton::Left => Drag::Look,
+                    MouseButton::Right => Drag::Pan,
+                    _ => return,
+                };
+                self.input.drag = Some((button, drag));
+            }
+            ElementState::Released => {
+                if self.input.drag.is_some_and(|(b, _)| b == button) {
+                    self.input.drag = None;
+                }
+            }
+        }
+    }
+
+    fn on_cursor_moved(&mut self, position: PhysicalPosition<f64>) {
+        let previous = self.input.cursor.replace(position);
+        let (Some(previous), Some((_, drag))) = (previous, self.input.drag) else {
+            return;
+        };
+        let (dx, dy) = (position.x - previous.x, position.y - previous.y);
+        let height_px = self
+            .gpu
+            .as_ref()
+            .map_or(800.0, |g| f64::from(g.config.height));
+        let radius_m = self.radius_m();
+        let planet = &self.planet;
+        let terrain = |lat: f64, lon: f64| terrain_height_m(planet, lat, lon);
+        match drag {
+            Drag::Look => controls::look_drag(&mut self.camera, dx, dy, height_px),
+            Drag::Pan => controls::pan_drag(&mut self.camera, dx, dy, height_px, radius_m, terrain),
+        }
+    }
+
+    fn on_wheel(&mut self, delta: MouseScrollDelta) {
+        let notches = match delta {
+            MouseScrollDelta::LineDelta(_, y) => f64::from(y),
+            // Touchpads: about 40 pixels per notch.
+            MouseScrollDelta::PixelDelta(p) => p.y / 40.0,
+        };
+        let planet = &self.planet;
+        controls::zoom(&mut self.camera, notches, |lat, lon| {
+            terrain_height_m(planet, lat, lon)
+        });
+    }
+}
+
+impl ApplicationHandler for App {
+    fn resumed(&mut self, event_loop: &ActiveEventLoop) {
+        if self.gpu.is_some() {
+            return;
+        }
+        match Gpu::new(
+            event_loop,
+            &self.display,
+            self.options.settings.clone(),
+            self.planet.clone(),
+            self.options.overlay_levels,
+        ) {
+            Ok(gpu) => {
+                gpu.window.request_redraw();
+                self.gpu = Some(gpu);
+            }
+            Err(e) => self.fail(event_loop, e),
+        }
+    }
+
+    fn window_event(&mut self, event_loop: &ActiveEventLoop, _: WindowId, event: WindowEvent) {
+        let Some(gpu) = self.gpu.as_mut() else {
+            return;
+        };
+        let response = gpu.egui_state.on_window_event(&gpu.window, &event);
+        if response.repaint {
+            gpu.window.request_redraw();
+        }
+        let egui_ctx = gpu.egui_state.egui_ctx().clone();
+        match event {
+            WindowEvent::CloseRequested => event_loop.exit(),
+            WindowEvent::Resized(size) => gpu.resize(size),
+            WindowEvent::RedrawRequested => self.redraw(event_loop),
+            WindowEvent::Focused(false) => self.input.release_all(),
+            WindowEvent::ModifiersChanged(modifiers) => self.input.modifiers = modifiers.state(),
+            WindowEvent::KeyboardInput { event, .. } => {
+                let egui_wants_keys = response.consumed || egui_ctx.egui_wants_keyboard_input();
+                self.on_key(&event, egui_wants_keys);
+            }
+            WindowEvent::MouseInput { state, button, .. } => {
+                let over_egui = response.consumed || egui_ctx.egui_wants_pointer_input();
+                self.on_mouse_button(button, state, over_egui);
+            }
+            WindowEvent::CursorMoved { position, .. } => self.on_cursor_moved(position),
+            WindowEvent::CursorLeft { .. } => self.input.cursor = None,
+            WindowEvent::MouseWheel { delta, .. }
+                if !(response.consumed || egui_ctx.is_pointer_over_egui()) =>
+            {
+                self.on_wheel(delta);
+            }
+            _ => {}
+        }
+    }
+
+    fn about_to_wait(&mut self, _: &ActiveEventLoop) {
+        if let Some(gpu) = &self.gpu {
+            gpu.window.request_redraw();
+        }
+    }
+}

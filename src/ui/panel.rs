@@ -1,0 +1,592 @@
+//! The egui side panel: what the renderer did this frame and why, the camera, and the settings.
+//!
+//! The panel only reads and edits typed values ([`Readout`], [`LiveSettings`], [`MeshDraft`]) and
+//! returns [`PanelAction`]s; the window code (`app.rs`) applies them. No wgpu here.
+
+use egui::{Color32, RichText};
+
+use crate::clipmap::selection::LevelStatus;
+use crate::clipmap::settings::level_outer_theta_rad;
+use crate::clipmap::{ClipmapSettings, TransformForm};
+use crate::geo::camera::Camera;
+use crate::render::FrameInfo;
+use crate::scenes::{SCENES, Scene};
+
+/// Sector counts offered in the panel.
+pub const SECTOR_CHOICES: [u32; 5] = [4, 8, 16, 32, 64];
+/// Values of n offered in the panel (those that are multiples of 2 · sectors).
+pub const PHI_STEP_CANDIDATES: [u32; 12] =
+    [64, 96, 128, 192, 256, 384, 512, 768, 1024, 1536, 2048, 4096];
+/// Texture sizes offered in the panel (those within the device limit).
+pub const TEXTURE_SIZE_CHOICES: [u32; 7] = [64, 128, 256, 512, 1024, 2048, 4096];
+/// Largest m offered in the panel (the settings allow more, but 2·n·m triangles per level grows
+/// quickly).
+pub const MAX_RINGS_PER_LEVEL: u32 = 128;
+
+/// Frame time, smoothed exponentially so the readout is legible.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct FrameStats {
+    /// Smoothed frame time in milliseconds (0 before the first frame).
+    pub frame_ms: f64,
+}
+
+impl FrameStats {
+    /// Weight of the newest frame in the average.
+    const ALPHA: f64 = 0.1;
+
+    pub fn record(&mut self, dt_s: f64) {
+        if !(dt_s.is_finite() && dt_s > 0.0) {
+            return;
+        }
+        let ms = dt_s * 1000.0;
+        self.frame_ms = if self.frame_ms == 0.0 {
+            ms
+        } else {
+            self.frame_ms + Self::ALPHA * (ms - self.frame_ms)
+        };
+    }
+
+    pub fn fps(&self) -> f64 {
+        if self.frame_ms > 0.0 {
+            1000.0 / self.frame_ms
+        } else {
+            0.0
+        }
+    }
+}
+
+/// Mesh settings being edited; they take effect (a new renderer) only on Apply.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct MeshDraft {
+    /// n
+    pub phi_steps: u32,
+    /// m
+    pub rings_per_level: u32,
+    pub texture_size: u32,
+    pub sectors: u32,
+}
+
+impl MeshDraft {
+    pub fn from_settings(settings: &ClipmapSettings) -> Self {
+        Self {
+            phi_steps: settings.phi_steps,
+            rings_per_level: settings.rings_per_level,
+            texture_size: settings.texture_size,
+            sectors: settings.sectors,
+        }
+    }
+
+    /// `base` with this draft's mesh fields.
+    pub fn apply_to(&self, base: &ClipmapSettings) -> ClipmapSettings {
+        ClipmapSettings {
+            phi_steps: self.phi_steps,
+            rings_per_level: self.rings_per_level,
+            texture_size: self.texture_size,
+            sectors: self.sectors,
+            ..base.clone()
+        }
+    }
+
+    /// Sets the sector count and moves n to the nearest value still valid for it.
+    pub fn set_sectors(&mut self, sectors: u32) {
+        self.sectors = sectors.max(1);
+        self.phi_steps = snap_phi_steps(self.phi_steps, self.sectors);
+    }
+}
+
+/// The values of n the panel offers for `sectors`: the candidates that are multiples of
+/// 2 · sectors, or the smallest such multiple if none is.
+pub fn phi_step_choices(sectors: u32) -> Vec<u32> {
+    let step = 2 * sectors.max(1);
+    let choices: Vec<u32> = PHI_STEP_CANDIDATES
+        .into_iter()
+        .filter(|n| n.is_multiple_of(step))
+        .collect();
+    if choices.is_empty() {
+        vec![step]
+    } else {
+        choices
+    }
+}
+
+/// The offered value of n (for `sectors`) nearest to `n`.
+pub fn snap_phi_steps(n: u32, sectors: u32) -> u32 {
+    phi_step_choices(sectors)
+        .into_iter()
+        .min_by_key(|c| c.abs_diff(n))
+        .unwrap_or(2 * sectors.max(1))
+}
+
+/// Settings that take effect on the next frame without rebuilding anything.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct LiveSettings {
+    pub transform: TransformForm,
+    pub approx_start_level: u32,
+    pub overlay_levels: bool,
+}
+
+/// What the panel shows this frame.
+pub struct Readout<'a> {
+    pub stats: &'a FrameStats,
+    /// What the renderer decided for the last frame (None before the first frame).
+    pub info: Option<&'a FrameInfo>,
+    pub camera: &'a Camera,
+    /// Terrain height under the camera.
+    pub terrain_height_m: f64,
+    /// The settings of the renderer now in use.
+    pub active: &'a ClipmapSettings,
+    pub adapter: &'a str,
+    /// Surface format and present mode, for the record.
+    pub surface: &'a str,
+    /// Largest texture side the device supports.
+    pub max_texture_size: u32,
+}
+
+/// What the user asked for; the window code carries it out after the frame.
+#[derive(Clone, Debug, PartialEq)]
+pub enum PanelAction {
+    /// Rebuild the renderer with these (validated) settings.
+    ApplyMesh(ClipmapSettings),
+    GoToScene(&'static Scene),
+    Screenshot,
+}
+
+/// The panel's own state between frames.
+pub struct Panel {
+    pub draft: MeshDraft,
+    /// A line of feedback (an applied setting, an error).
+    pub message: Option<String>,
+    /// Path of the last screenshot.
+    pub last_screenshot: Option<String>,
+}
+
+impl Panel {
+    pub fn new(settings: &ClipmapSettings) -> Self {
+        Self {
+            draft: MeshDraft::from_settings(settings),
+            message: None,
+            last_screenshot: None,
+        }
+    }
+
+    /// Draws the panel on the left of `ui` and returns what the user asked for.
+    pub fn show(
+        &mut self,
+        ui: &mut egui::Ui,
+        readout: &Readout<'_>,
+        live: &mut LiveSettings,
+    ) -> Vec<PanelAction> {
+        let mut actions = Vec::new();
+        egui::Panel::left("globe panel")
+            .resizable(true)
+            .default_size(320.0)
+            .show(ui, |ui| {
+                egui::ScrollArea::vertical().show(ui, |ui| {
+                    self.contents(ui, readout, live, &mut actions);
+                });
+            });
+        actions
+    }
+
+    fn contents(
+        &mut self,
+        ui: &mut egui::Ui,
+        readout: &Readout<'_>,
+        live: &mut LiveSettings,
+        actions: &mut Vec<PanelAction>,
+    ) {
+        ui.heading("globe");
+        ui.small(readout.adapter);
+        ui.small(readout.surface);
+        ui.separator();
+
+        frame_section(ui, readout);
+        ui.separator();
+        camera_section(ui, readout);
+        ui.separator();
+
+        ui.strong("Scenes");
+        ui.horizontal_wrapped(|ui| {
+            for scene in &SCENES {
+                let hover = format!("{}: {}", scene.height_label(), scene.stresses);
+                if ui.button(scene.name).on_hover_text(hover).clicked() {
+                    actions.push(PanelAction::GoToScene(scene));
+                }
+            }
+        });
+        ui.separator();
+
+        ui.strong("Rendering");
+        egui::ComboBox::from_label("map transform")
+            .selected_text(live.transform.name())
+            .show_ui(ui, |ui| {
+                for form in TransformForm::ALL {
+                    ui.selectable_value(&mut live.transform, form, form.name());
+                }
+            });
+        ui.horizontal(|ui| {
+            let last = readout.active.levels.saturating_sub(1);
+            ui.add_enabled(
+                live.transform == TransformForm::Approximate,
+                egui::DragValue::new(&mut live.approx_start_level).range(0..=last),
+            );
+            ui.label("approximation from level");
+        });
+        ui.checkbox(&mut live.overlay_levels, "levels")
+            .on_hover_text("colour each clipmap level");
+        ui.separator();
+
+        self.mesh_section(ui, readout, actions);
+        ui.separator();
+
+        ui.horizontal(|ui| {
+            if ui.button("Screenshot").on_hover_text("F12 or P").clicked() {
+                actions.push(PanelAction::Screenshot);
+            }
+        });
+        if let Some(path) = &self.last_screenshot {
+            ui.small(format!("saved {path}"));
+        }
+        if let Some(message) = &self.message {
+            ui.label(RichText::new(message).color(Color32::from_rgb(230, 180, 80)));
+        }
+        ui.separator();
+        ui.collapsing("Controls", |ui| {
+            for line in CONTROLS_HELP {
+                ui.small(*line);
+            }
+        });
+    }
+
+    fn mesh_section(
+        &mut self,
+        ui: &mut egui::Ui,
+        readout: &Readout<'_>,
+        actions: &mut Vec<PanelAction>,
+    ) {
+        ui.strong("Mesh");
+        let draft = &mut self.draft;
+        egui::Grid::new("mesh settings")
+            .num_columns(2)
+            .show(ui, |ui| {
+                ui.label("sectors");
+                let mut sectors = draft.sectors;
+                egui::ComboBox::from_id_salt("sectors")
+                    .selected_text(sectors.to_string())
+                    .show_ui(ui, |ui| {
+                        for s in SECTOR_CHOICES {
+                            ui.selectable_value(&mut sectors, s, s.to_string());
+                        }
+                    });
+                if sectors != draft.sectors {
+                    draft.set_sectors(sectors);
+                }
+                ui.end_row();
+
+                ui.label("n (φ̃ steps)");
+                egui::ComboBox::from_id_salt("phi steps")
+                    .selected_text(draft.phi_steps.to_string())
+                    .show_ui(ui, |ui| {
+                        for n in phi_step_choices(draft.sectors) {
+                            ui.selectable_value(&mut draft.phi_steps, n, n.to_string());
+                        }
+                    });
+                ui.end_row();
+
+                ui.label("m (rings/level)");
+                ui.add(
+                    egui::DragValue::new(&mut draft.rings_per_level)
+                        .range(1..=MAX_RINGS_PER_LEVEL)
+                        .speed(0.2),
+                );
+                ui.end_row();
+
+                ui.label("texture size");
+                egui::ComboBox::from_id_salt("texture size")
+                    .selected_text(draft.texture_size.to_string())
+                    .show_ui(ui, |ui| {
+                        for s in TEXTURE_SIZE_CHOICES {
+                            if s <= readout.max_texture_size {
+                                ui.selectable_value(&mut draft.texture_size, s, s.to_string());
+                            }
+                        }
+                    });
+                ui.end_row();
+            });
+        let settings = draft.apply_to(readout.active);
+        let texture_mib = (settings.texture_size as f64).powi(2) * settings.levels as f64 * 4.0
+            / (1024.0 * 1024.0);
+        ui.small(format!(
+            "{} triangles per level, {:.0} MiB of level textures",
+            group_digits(settings.triangles_per_level()),
+            texture_mib
+        ));
+        let validity = settings.validate();
+        if let Err(e) = &validity {
+            ui.label(RichText::new(e.to_string()).color(Color32::LIGHT_RED));
+        }
+        let changed = settings != *readout.active;
+        ui.horizontal(|ui| {
+            if ui
+                .add_enabled(changed && validity.is_ok(), egui::Button::new("Apply"))
+                .clicked()
+            {
+                actions.push(PanelAction::ApplyMesh(settings.clone()));
+            }
+            if ui
+                .add_enabled(changed, egui::Button::new("Revert"))
+                .clicked()
+            {
+                self.draft = MeshDraft::from_settings(readout.active);
+            }
+        });
+    }
+}
+
+/// Shown under "Controls".
+pub const CONTROLS_HELP: &[&str] = &[
+    "left drag: look around (heading, pitch)",
+    "right drag / Shift + left drag: move over the ground",
+    "wheel: zoom (height above terrain × 0.85 per notch)",
+    "W/S: forward/back   A/D: left/right   Q/E: down/up",
+    "arrows: turn and pitch   Shift: 5 × faster",
+    "F12 / P: screenshot",
+];
+
+fn frame_section(ui: &mut egui::Ui, readout: &Readout<'_>) {
+    let stats = readout.stats;
+    ui.label(format!(
+        "frame {:.2} ms   {:.1} FPS",
+        stats.frame_ms,
+        stats.fps()
+    ));
+    let Some(info) = readout.info else {
+        ui.label("(no frame yet)");
+        return;
+    };
+    let sel = &info.selection;
+    ui.label(format!(
+        "triangles drawn: {}",
+        group_digits(info.draw.triangles)
+    ));
+    ui.label(format!(
+        "sectors drawn / culled: {} / {}",
+        info.draw.sectors_drawn, info.draw.sectors_culled
+    ));
+    ui.label(format!(
+        "levels drawn: {}..{} ({} of {})",
+        sel.coarsest,
+        sel.finest,
+        sel.finest - sel.coarsest + 1,
+        sel.status.len()
+    ));
+    ui.label(format!(
+        "texels filled: {}   near: {}",
+        group_digits(info.texels_filled),
+        format_length_m(info.near_m)
+    ));
+    egui::CollapsingHeader::new("levels: why each is drawn or not")
+        .default_open(false)
+        .show(ui, |ui| {
+            ui.label(format!(
+                "θ̃max = {} (horizon, with mountains)",
+                format_deg(sel.theta_max_rad.to_degrees())
+            ));
+            ui.label(format!(
+                "θ̃min = {} (one pixel below the viewer)",
+                format_deg(sel.theta_min_rad.to_degrees())
+            ));
+            ui.small("level i covers θ̃ ∈ (outer/2, outer]");
+            egui::Grid::new("level table")
+                .striped(true)
+                .num_columns(4)
+                .show(ui, |ui| {
+                    ui.strong("level");
+                    ui.strong("θ̃ outer");
+                    ui.strong("θ̃ inner");
+                    ui.strong("status");
+                    ui.end_row();
+                    for (level, status) in sel.status.iter().enumerate() {
+                        let outer = level_outer_theta_rad(level as u32).to_degrees();
+                        let colour = match status {
+                            LevelStatus::Drawn => Color32::from_rgb(120, 210, 120),
+                            LevelStatus::BeyondHorizon => Color32::GRAY,
+                            LevelStatus::SubPixel => Color32::from_rgb(220, 160, 90),
+                        };
+                        ui.label(level.to_string());
+                        ui.label(format_deg(outer));
+                        ui.label(format_deg(0.5 * outer));
+                        ui.label(RichText::new(status.label()).color(colour));
+                        ui.end_row();
+                    }
+                });
+        });
+}
+
+fn camera_section(ui: &mut egui::Ui, readout: &Readout<'_>) {
+    let c = readout.camera;
+    ui.strong("Camera");
+    egui::Grid::new("camera readout")
+        .num_columns(2)
+        .show(ui, |ui| {
+            let mut row = |name: &str, value: String| {
+                ui.label(name);
+                ui.monospace(value);
+                ui.end_row();
+            };
+            row("lat", format!("{:.6}°", c.lat_deg));
+            row("lon", format!("{:.6}°", c.lon_deg));
+            row("altitude", format_length_m(c.altitude_m));
+            row(
+                "above terrain",
+                format_length_m(c.altitude_m - readout.terrain_height_m),
+            );
+            row("terrain", format_length_m(readout.terrain_height_m));
+            row("heading", format!("{:.2}°", c.heading_deg));
+            row("pitch", format!("{:.2}°", c.pitch_deg));
+            row("roll", format!("{:.2}°", c.roll_deg));
+        });
+}
+
+/// Metres, with kilometres beside them from 1 km up; millimetres stay visible near the ground.
+pub fn format_length_m(m: f64) -> String {
+    if !m.is_finite() {
+        format!("{m} m")
+    } else if m.abs() >= 1000.0 {
+        format!("{:.1} m ({:.3} km)", m, m / 1000.0)
+    } else {
+        format!("{m:.3} m")
+    }
+}
+
+/// Degrees, switching to scientific notation for the tiny angles of fine levels.
+pub fn format_deg(deg: f64) -> String {
+    if deg != 0.0 && deg.abs() < 0.01 {
+        format!("{deg:.3e}°")
+    } else {
+        format!("{deg:.3}°")
+    }
+}
+
+/// 1234567 → "1 234 567".
+pub fn group_digits(value: u64) -> String {
+    let digits = value.to_string();
+    let mut out = String::with_capacity(digits.len() + digits.len() / 3);
+    for (i, ch) in digits.chars().enumerate() {
+        if i > 0 && (digits.len() - i).is_multiple_of(3) {
+            out.push(' ');
+        }
+        out.push(ch);
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn phi_step_choices_are_valid_for_every_sector_count() {
+        for sectors in SECTOR_CHOICES {
+            let choices = phi_step_choices(sectors);
+            assert!(!choices.is_empty());
+            for n in choices {
+                let settings = ClipmapSettings {
+                    phi_steps: n,
+                    sectors,
+                    ..Default::default()
+                };
+                assert!(settings.validate().is_ok(), "n {n} sectors {sectors}");
+            }
+        }
+        assert_eq!(phi_step_choices(1000), vec![2000]);
+    }
+
+    #[test]
+    fn changing_sectors_keeps_n_valid() {
+        let mut draft = MeshDraft::from_settings(&ClipmapSettings::default());
+        draft.phi_steps = 96;
+        draft.set_sectors(64);
+        assert_eq!(draft.phi_steps, 128);
+        draft.set_sectors(4);
+        assert_eq!(draft.phi_steps, 128);
+        let settings = draft.apply_to(&ClipmapSettings::default());
+        assert!(settings.validate().is_ok());
+    }
+
+    #[test]
+    fn frame_stats_smooth() {
+        let mut stats = FrameStats::default();
+        assert_eq!(stats.fps(), 0.0);
+        stats.record(0.010);
+        assert!((stats.frame_ms - 10.0).abs() < 1e-9);
+        for _ in 0..200 {
+            stats.record(0.020);
+        }
+        assert!((stats.frame_ms - 20.0).abs() < 1e-3);
+        assert!((stats.fps() - 50.0).abs() < 1e-2);
+        stats.record(f64::NAN);
+        assert!(stats.frame_ms.is_finite());
+    }
+
+    #[test]
+    fn formatting() {
+        assert_eq!(group_digits(0), "0");
+        assert_eq!(group_digits(1234567), "1 234 567");
+        assert_eq!(group_digits(123456), "123 456");
+        assert_eq!(format_length_m(0.001), "0.001 m");
+        assert_eq!(format_length_m(20_000_000.0), "20000000.0 m (20000.000 km)");
+        assert_eq!(format_deg(45.0), "45.000°");
+        assert_eq!(format_deg(1.5e-7), "1.500e-7°");
+    }
+
+    /// The panel lays out without a window (egui runs headless) for every kind of readout.
+    #[test]
+    fn panel_lays_out_headless() {
+        let settings = ClipmapSettings::default();
+        let camera = SCENES[1].camera(|_, _| 0.0);
+        let selection = crate::clipmap::selection::LevelSelection::new(settings.levels, 0.06, 1e-8);
+        let info = FrameInfo {
+            selection,
+            draw: Default::default(),
+            texels_filled: 0,
+            near_m: 1.0,
+            height_above_terrain_m: 10_000.0,
+            sky_linear: [0.0; 3],
+        };
+        let stats = FrameStats { frame_ms: 16.0 };
+        let mut panel = Panel::new(&settings);
+        let mut live = LiveSettings {
+            transform: settings.transform,
+            approx_start_level: settings.approx_start_level,
+            overlay_levels: false,
+        };
+        let ctx = egui::Context::default();
+        for info in [None, Some(&info)] {
+            let readout = Readout {
+                stats: &stats,
+                info,
+                camera: &camera,
+                terrain_height_m: 0.0,
+                active: &settings,
+                adapter: "test adapter",
+                surface: "test surface",
+                max_texture_size: 8192,
+            };
+            let input = egui::RawInput {
+                screen_rect: Some(egui::Rect::from_min_size(
+                    egui::Pos2::ZERO,
+                    egui::vec2(1280.0, 800.0),
+                )),
+                ..Default::default()
+            };
+            let mut actions = Vec::new();
+            let mut output = ctx.run_ui(input, |ui| {
+                actions = panel.show(ui, &readout, &mut live);
+            });
+            output.textures_delta.clear();
+            assert!(actions.is_empty());
+            assert!(!output.shapes.is_empty());
+        }
+    }
+}

@@ -1,0 +1,361 @@
+//! Rendering tests on the (software) adapter: the named scenes against geometry and against the
+//! analytic planet's closed-form heights.
+
+mod common;
+
+use glam::DVec3;
+use globe::clipmap::ClipmapSettings;
+use globe::clipmap::selection::LevelStatus;
+use globe::clipmap::settings::level_outer_theta_rad;
+use globe::geo::camera::Camera;
+use globe::geo::projection;
+use globe::render::offscreen::{COLOR_FORMAT, OffscreenFrame, RenderedFrame};
+use globe::render::{GpuContext, TerrainRenderer};
+use globe::scenes::Scene;
+use globe::terrain::AnalyticPlanet;
+use globe::terrain::analytic::band_weight;
+
+fn renderer(ctx: &GpuContext) -> TerrainRenderer {
+    TerrainRenderer::new(
+        &ctx.device,
+        ClipmapSettings::default(),
+        AnalyticPlanet::earth(),
+        COLOR_FORMAT,
+    )
+    .unwrap()
+}
+
+fn render(
+    ctx: &GpuContext,
+    r: &mut TerrainRenderer,
+    camera: &Camera,
+    w: u32,
+    h: u32,
+) -> RenderedFrame {
+    OffscreenFrame::new(&ctx.device, w, h)
+        .render(ctx, r, camera)
+        .unwrap()
+}
+
+fn scene_camera(r: &TerrainRenderer, name: &str) -> Camera {
+    Scene::by_name(name)
+        .unwrap()
+        .camera(|lat, lon| r.terrain_height_m(lat, lon))
+}
+
+/// The surface point under pixel (x, y), in view space, from the rendered depth (f64).
+fn surface_point_view(
+    camera: &Camera,
+    frame: &RenderedFrame,
+    x: u32,
+    y: u32,
+    radius_m: f64,
+) -> Option<DVec3> {
+    let depth = frame.depth_at(x, y) as f64;
+    if depth <= 0.0 {
+        return None;
+    }
+    let aspect = frame.width as f64 / frame.height as f64;
+    let ndc = DVec3::new(
+        (x as f64 + 0.5) / frame.width as f64 * 2.0 - 1.0,
+        1.0 - (y as f64 + 0.5) / frame.height as f64 * 2.0,
+        depth,
+    );
+    let camera_from_clip =
+        projection::camera_from_clip(camera.fov_y_rad(), aspect, frame.info.near_m);
+    let p_cam = projection::camera_point_from_ndc(&camera_from_clip, ndc);
+    Some(DVec3::new(0.0, 0.0, radius_m + camera.altitude_m) + camera.view_from_camera() * p_cam)
+}
+
+/// `space`: the disk's radius is the one geometry predicts within 1 px, centred on the image.
+#[test]
+fn space_disk_radius_and_centre_match_geometry() {
+    let Some((ctx, _guard)) = common::gpu() else {
+        return;
+    };
+    let mut r = renderer(ctx);
+    let camera = scene_camera(&r, "space");
+    let (w, h) = (1920, 1080);
+    let frame = render(ctx, &mut r, &camera, w, h);
+    let (mut count, mut sx, mut sy) = (0u64, 0.0, 0.0);
+    for y in 0..h {
+        for x in 0..w {
+            if frame.depth_at(x, y) > 0.0 {
+                count += 1;
+                sx += x as f64 + 0.5;
+                sy += y as f64 + 0.5;
+            }
+        }
+    }
+    let radius_px = (count as f64 / std::f64::consts::PI).sqrt();
+    // The silhouette cone of a sphere of radius R seen from distance R + H: sin α = R/(R + H).
+    let alpha = (r.planet.radius_m / (r.planet.radius_m + camera.altitude_m)).asin();
+    let focal_px = 0.5 * h as f64 / (0.5 * camera.fov_y_rad()).tan();
+    let predicted_px = focal_px * alpha.tan();
+    let (cx, cy) = (sx / count as f64, sy / count as f64);
+    eprintln!(
+        "space disk: radius {radius_px:.2} px, predicted {predicted_px:.2} px; centre ({cx:.2}, {cy:.2})"
+    );
+    assert!(
+        (radius_px - predicted_px).abs() <= 1.0,
+        "radius {radius_px} vs {predicted_px}"
+    );
+    // Looking at the planet's centre: its projection is the image centre.
+    assert!((cx - w as f64 / 2.0).abs() <= 1.0 && (cy - h as f64 / 2.0).abs() <= 1.0);
+    // Only the coarsest levels: level 0 lies beyond the horizon.
+    assert_eq!(frame.info.selection.status[0], LevelStatus::BeyondHorizon);
+}
+
+/// A priori bound on |rendered − true| height for a point at angle θ̃ from the nadir: what the
+/// level's texture leaves out by its band limit (the LOD drops it on purpose, paper §4.2), plus
+/// two stacked linear interpolations (texture, then mesh) of each kept scale: a product of two
+/// sines of wavenumber k has curvature ≤ 2k²A, so each step Δ costs ≤ k²Δ²A/4.
+fn height_tolerance_m(
+    planet: &AnalyticPlanet,
+    settings: &ClipmapSettings,
+    theta_tilde: f64,
+    distance_m: f64,
+) -> f64 {
+    let level = ((std::f64::consts::PI / theta_tilde.max(1e-30))
+        .log2()
+        .floor() as u32)
+        .min(settings.levels - 1);
+    let outer = level_outer_theta_rad(level);
+    let r = planet.radius_m;
+    let texel_m = 4.0 * outer / settings.texture_size as f64 * r;
+    let band_texel_m = 2.0 * texel_m;
+    let ring_step_m = outer * (1.0 - (-1.0 / settings.rings_per_level as f64).exp2()) * r;
+    let step_m = ring_step_m.max(texel_m);
+    let mut tol = planet.band_limit_bound_m(band_texel_m);
+    for s in &planet.scales {
+        let k = std::f64::consts::TAU / s.wavelength_m;
+        tol += band_weight(s.wavelength_m, band_texel_m)
+            * s.amplitude_m
+            * (0.5 * (k * step_m).powi(2)).min(2.0);
+    }
+    // Depth precision (f32 reversed-Z ~1e-7 relative) and 1 mm of f32 slack.
+    tol + 1e-6 * distance_m + 1e-3
+}
+
+fn check_heights(name: &str) {
+    let Some((ctx, _guard)) = common::gpu() else {
+        return;
+    };
+    let mut r = renderer(ctx);
+    let camera = scene_camera(&r, name);
+    let (w, h) = (640, 360);
+    let frame = render(ctx, &mut r, &camera, w, h);
+    let view = camera.view_frame();
+    let radius = r.planet.radius_m;
+    let (mut checked, mut worst_ratio, mut max_err, mut max_rho) = (0, 0.0f64, 0.0f64, 0.0f64);
+    let px_per_rad = h as f64 / camera.fov_y_rad();
+    for y in (0..h).step_by(7) {
+        for x in (0..w).step_by(7) {
+            let Some(p_view) = surface_point_view(&camera, &frame, x, y, radius) else {
+                continue;
+            };
+            let u_world = view.world_from_view * p_view.normalize();
+            let rendered_h = p_view.length() - radius;
+            let true_h = r.planet.height_m(u_world);
+            let err = (rendered_h - true_h).abs();
+            let eye = DVec3::new(0.0, 0.0, radius + camera.altitude_m);
+            let distance = (p_view - eye).length();
+            let theta_tilde = p_view.normalize().z.clamp(-1.0, 1.0).acos();
+            let tol = height_tolerance_m(&r.planet, &r.settings, theta_tilde, distance);
+            assert!(
+                err <= tol,
+                "{name}: pixel ({x},{y}) at {distance:.1} m: rendered {rendered_h:.4} m, true {true_h:.4} m, tolerance {tol:.4} m"
+            );
+            checked += 1;
+            worst_ratio = worst_ratio.max(err / tol);
+            max_err = max_err.max(err);
+            max_rho = max_rho.max(err * px_per_rad / distance);
+        }
+    }
+    eprintln!(
+        "{name}: {checked} pixels, max |Δh| {max_err:.4} m, max error/tolerance {worst_ratio:.3}, max ρ {max_rho:.3} px"
+    );
+    assert!(checked > 1000, "{name}: too few terrain pixels ({checked})");
+}
+
+#[test]
+fn aircraft_heights_match_the_analytic_planet() {
+    check_heights("aircraft");
+}
+
+#[test]
+fn ground_heights_match_the_analytic_planet() {
+    check_heights("ground");
+}
+
+/// Levels outside [θ̃min, θ̃max] are not drawn, and drawing them anyway changes (almost)
+/// nothing: horizon-culled levels are hidden, pixel-bound ones are inside the finest cap.
+#[test]
+fn skipped_levels_are_really_invisible() {
+    let Some((ctx, _guard)) = common::gpu() else {
+        return;
+    };
+    let mut r = renderer(ctx);
+    for name in ["north-pole", "space", "ground"] {
+        let camera = scene_camera(&r, name);
+        let (w, h) = (480, 270);
+        r.draw_all_levels = false;
+        let selected = render(ctx, &mut r, &camera, w, h);
+        let sel = &selected.info.selection;
+        for (i, status) in sel.status.iter().enumerate() {
+            let outer = level_outer_theta_rad(i as u32);
+            match status {
+                LevelStatus::Drawn => {
+                    assert!(outer / 2.0 < sel.theta_max_rad && outer >= sel.theta_min_rad)
+                }
+                LevelStatus::BeyondHorizon => assert!(outer / 2.0 >= sel.theta_max_rad),
+                LevelStatus::SubPixel => assert!(outer < sel.theta_min_rad),
+            }
+        }
+        r.draw_all_levels = true;
+        let everything = render(ctx, &mut r, &camera, w, h);
+        r.draw_all_levels = false;
+        let differing = selected
+            .rgba
+            .chunks(4)
+            .zip(everything.rgba.chunks(4))
+            .filter(|(a, b)| a != b)
+            .count();
+        eprintln!(
+            "{name}: drew levels {:?} ({} triangles); all {} levels ({} triangles) differ in {differing} px",
+            sel.drawn_levels(),
+            selected.info.draw.triangles,
+            r.settings.levels,
+            everything.info.draw.triangles
+        );
+        assert!(
+            differing <= 4,
+            "{name}: skipped levels changed {differing} pixels"
+        );
+        assert!(everything.info.draw.triangles > selected.info.draw.triangles);
+    }
+}
+
+/// Stiff cameras: exactly at a pole, 1 mm and 10⁹ m up, straight down and straight up. No
+/// panic, finite depths, and the coverage geometry predicts.
+#[test]
+fn extreme_cameras_render_finite_frames() {
+    let Some((ctx, _guard)) = common::gpu() else {
+        return;
+    };
+    let mut r = renderer(ctx);
+    let (w, h) = (96, 64);
+    for lat in [90.0, -90.0, 45.65] {
+        for above_terrain in [1e-3, 2.0, 1e9] {
+            for pitch in [-90.0, 90.0, -30.0] {
+                let ground = r.terrain_height_m(lat, 10.0);
+                let camera = Camera {
+                    lat_deg: lat,
+                    lon_deg: 10.0,
+                    altitude_m: ground + above_terrain,
+                    heading_deg: 0.0,
+                    pitch_deg: pitch,
+                    roll_deg: 0.0,
+                    fov_y_deg: 60.0,
+                };
+                let frame = render(ctx, &mut r, &camera, w, h);
+                assert!(
+                    frame
+                        .depth
+                        .iter()
+                        .all(|d| d.is_finite() && (0.0..=1.0).contains(d))
+                );
+                let covered = frame.depth.iter().filter(|d| **d > 0.0).count();
+                let all = (w * h) as usize;
+                let what = format!(
+                    "lat {lat}, {above_terrain} m above terrain, pitch {pitch}: {covered}/{all} px terrain"
+                );
+                eprintln!("{what}");
+                if pitch == -90.0 && above_terrain < 1e3 {
+                    assert_eq!(
+                        covered, all,
+                        "{what}: looking down from near the ground must see only ground"
+                    );
+                }
+                if pitch == 90.0 && above_terrain < 1e3 {
+                    assert_eq!(covered, 0, "{what}: looking straight up must see only sky");
+                }
+                if pitch == -90.0 && above_terrain >= 1e9 {
+                    let alpha =
+                        (r.planet.radius_m / (r.planet.radius_m + camera.altitude_m)).asin();
+                    let radius_px = 0.5 * h as f64 / (0.5 * camera.fov_y_rad()).tan() * alpha.tan();
+                    let predicted = std::f64::consts::PI * radius_px * radius_px;
+                    assert!(
+                        (covered as f64 - predicted).abs()
+                            <= 2.0 * std::f64::consts::PI * radius_px + 4.0,
+                        "{what}: predicted {predicted:.1} px"
+                    );
+                }
+            }
+        }
+    }
+}
+
+/// Error against cost over mesh settings, to choose the defaults (README "Choosing n, m and
+/// the texture size"). Slow on a software adapter, so ignored; run with
+/// `cargo test --release --test render_scenes -- --ignored --nocapture settings_sweep`.
+#[test]
+#[ignore]
+fn settings_sweep() {
+    let Some((ctx, _guard)) = common::gpu() else {
+        return;
+    };
+    let (w, h) = (960, 540);
+    eprintln!(
+        "{:<10} {:>5} {:>4} {:>6} {:>10} {:>9} {:>9} {:>9}",
+        "scene", "n", "m", "tex", "triangles", "mean ρ", "p99 ρ", "max ρ"
+    );
+    for (n, m, tex) in [
+        (256, 16, 256),
+        (512, 16, 256),
+        (512, 16, 512),
+        (512, 32, 512),
+        (512, 48, 512),
+        (1024, 32, 512),
+        (1024, 64, 1024),
+    ] {
+        let settings = ClipmapSettings {
+            phi_steps: n,
+            rings_per_level: m,
+            texture_size: tex,
+            ..Default::default()
+        };
+        let mut r =
+            TerrainRenderer::new(&ctx.device, settings, AnalyticPlanet::earth(), COLOR_FORMAT)
+                .unwrap();
+        for name in ["aircraft", "ground"] {
+            let camera = scene_camera(&r, name);
+            let frame = render(ctx, &mut r, &camera, w, h);
+            let view = camera.view_frame();
+            let radius = r.planet.radius_m;
+            let px_per_rad = h as f64 / camera.fov_y_rad();
+            let eye = DVec3::new(0.0, 0.0, radius + camera.altitude_m);
+            let mut rho = Vec::new();
+            for y in (0..h).step_by(3) {
+                for x in (0..w).step_by(3) {
+                    let Some(p) = surface_point_view(&camera, &frame, x, y, radius) else {
+                        continue;
+                    };
+                    let err = (p.length()
+                        - radius
+                        - r.planet.height_m(view.world_from_view * p.normalize()))
+                    .abs();
+                    rho.push(err * px_per_rad / (p - eye).length());
+                }
+            }
+            rho.sort_by(f64::total_cmp);
+            let mean = rho.iter().sum::<f64>() / rho.len() as f64;
+            let p99 = rho[(rho.len() as f64 * 0.99) as usize];
+            let max = rho[rho.len() - 1];
+            eprintln!(
+                "{name:<10} {n:>5} {m:>4} {tex:>6} {:>10} {mean:>9.4} {p99:>9.4} {max:>9.4}",
+                frame.info.draw.triangles
+            );
+        }
+    }
+}
