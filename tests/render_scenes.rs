@@ -359,3 +359,49 @@ fn settings_sweep() {
         }
     }
 }
+
+/// Crossing the antimeridian (φ = ±π) and Greenwich (where the level grids wrap, φ = 0 = 2π) by
+/// 0.2 mm moves the image by almost nothing, with the toroidal update path (same renderer) and
+/// from scratch (fresh renderer).
+#[test]
+fn crossing_the_antimeridian_and_greenwich_is_continuous() {
+    let Some((ctx, _guard)) = common::gpu() else {
+        return;
+    };
+    let (w, h) = (320, 180);
+    let deg_per_0_1mm = 1e-4 / globe::geo::EARTH_RADIUS_M * 180.0 / std::f64::consts::PI;
+    for lon in [180.0, 0.0] {
+        let mut r = renderer(ctx);
+        let at = |lon_deg: f64| Camera {
+            lat_deg: 0.3,
+            lon_deg,
+            altitude_m: 1000.0,
+            heading_deg: 90.0,
+            pitch_deg: -30.0,
+            roll_deg: 0.0,
+            fov_y_deg: 60.0,
+        };
+        let west = render(ctx, &mut r, &at(lon - deg_per_0_1mm), w, h);
+        let east_updated = render(ctx, &mut r, &at(lon + deg_per_0_1mm), w, h);
+        let east_fresh = render(ctx, &mut renderer(ctx), &at(lon + deg_per_0_1mm), w, h);
+        let diff = |a: &RenderedFrame, b: &RenderedFrame| {
+            a.rgba
+                .iter()
+                .zip(&b.rgba)
+                .filter(|(x, y)| (**x as i32 - **y as i32).abs() > 2)
+                .count()
+        };
+        let (across, fresh) = (diff(&west, &east_updated), diff(&east_updated, &east_fresh));
+        eprintln!(
+            "lon {lon}: 0.2 mm across changes {across} channel values; updated vs fresh {fresh}"
+        );
+        assert!(
+            across <= 16,
+            "crossing lon {lon} changed {across} channel values"
+        );
+        assert!(
+            fresh <= 16,
+            "toroidal update differs from a fresh fill at lon {lon} in {fresh} channel values"
+        );
+    }
+}

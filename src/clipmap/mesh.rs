@@ -214,4 +214,67 @@ mod tests {
                 .all(|&i| (i as usize) < mesh.vertices.len())
         );
     }
+
+    /// Level boundaries have no T-junctions: the outer ring of level i and the inner ring of
+    /// level i−1 have the same vertices (bitwise equal p̃ and 1 − cos θ̃), column by column.
+    #[test]
+    fn level_boundaries_coincide() {
+        let s = small();
+        let mesh = RingMesh::build(&s);
+        let columns = (s.phi_steps + 2) as usize;
+        let per_level = (s.rings_per_level as usize + 1) * columns + 1;
+        for level in 1..s.levels as usize {
+            let outer = &mesh.vertices[level * per_level..][..columns];
+            let inner_of_coarser = &mesh.vertices
+                [(level - 1) * per_level + s.rings_per_level as usize * columns..][..columns];
+            for (a, b) in outer.iter().zip(inner_of_coarser) {
+                assert_eq!(a.p_tilde, b.p_tilde);
+                assert_eq!(a.one_minus_cos, b.one_minus_cos);
+                assert_eq!(a.seam_side, b.seam_side);
+                // The finer level's copy blends fully into the coarser texture (ring_t 0), the
+                // coarser level's copy not at all (ring_t 1): both sample the same heights.
+                assert_eq!((a.ring_t, b.ring_t), (0.0, 1.0));
+            }
+        }
+    }
+
+    /// Every seam vertex (p̃y = 0 on φ̃ = 0 or π) exists twice, once per side, and every
+    /// triangle touching a seam uses the copy of its own side.
+    #[test]
+    fn seam_meridians_are_duplicated_per_side() {
+        let s = small();
+        let mesh = RingMesh::build(&s);
+        let seam: Vec<&RingVertex> = mesh
+            .vertices
+            .iter()
+            .filter(|v| v.seam_side != 0.0)
+            .collect();
+        // Two meridians × two copies × (m+1) rings × levels.
+        assert_eq!(seam.len() as u32, 4 * (s.rings_per_level + 1) * s.levels);
+        for v in &seam {
+            assert_eq!(v.p_tilde[1], 0.0, "seam vertex with p̃y ≠ 0");
+            let twins = seam
+                .iter()
+                .filter(|w| w.p_tilde == v.p_tilde && w.level == v.level && w.ring_t == v.ring_t)
+                .count();
+            assert_eq!(twins, 2);
+        }
+        for tri in mesh.indices.chunks(3) {
+            let vs: Vec<&RingVertex> = tri.iter().map(|&i| &mesh.vertices[i as usize]).collect();
+            let side: f32 = vs
+                .iter()
+                .filter(|v| v.seam_side == 0.0)
+                .map(|v| v.p_tilde[1].signum())
+                .sum();
+            for v in vs.iter().filter(|v| v.seam_side != 0.0) {
+                if side != 0.0 {
+                    assert_eq!(
+                        v.seam_side,
+                        side.signum(),
+                        "triangle uses the wrong seam copy"
+                    );
+                }
+            }
+        }
+    }
 }

@@ -104,7 +104,7 @@ impl ClipmapSettings {
     /// Checks every field; the renderer only accepts validated settings.
     pub fn validate(&self) -> Result<(), SettingsError> {
         let n = self.phi_steps;
-        if self.sectors == 0 || n == 0 || n % (2 * self.sectors) != 0 {
+        if self.sectors == 0 || n == 0 || !n.is_multiple_of(2 * self.sectors) {
             return Err(SettingsError::PhiSteps {
                 n,
                 sectors: self.sectors,

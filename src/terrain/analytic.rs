@@ -71,7 +71,7 @@ impl AnalyticPlanet {
     pub const LONGEST_WAVELENGTH_M: f64 = 4.0e6;
 
     pub fn new(radius_m: f64) -> Self {
-        let mut rng = SplitMix(0x676C_6F62_65); // "globe"
+        let mut rng = SplitMix(0x0067_6C6F_6265); // "globe"
         let scales = std::array::from_fn(|k| {
             let wavelength_m = Self::LONGEST_WAVELENGTH_M * 0.25f64.powi(k as i32);
             Scale {
