@@ -120,7 +120,15 @@ fn map_transform(p_tilde: vec3<f32>, seam_side: f32, level: u32, ring_t: f32) ->
         case 2u: {
             // By ring, continuous across level boundaries (level i, ring_t 0 ≡ level i−1,
             // ring_t 1): 0 outside approx_start_level, ramping to 1 across it (Fig. 14).
+            // Only the blend ring pays for both forms; inside it the approximation alone runs
+            // (the paper's speed path), outside it the stable form alone.
             let w = clamp(f32(level) + ring_t - f32(frame.approx_start_level), 0.0, 1.0);
+            if w >= 1.0 {
+                return map_transform_approx(frame.transform, p_tilde);
+            }
+            if w <= 0.0 {
+                return map_transform_stable(frame.transform, p_tilde, seam_side);
+            }
             return map_transform_blended(w, frame.transform, p_tilde, seam_side);
         }
         default: {

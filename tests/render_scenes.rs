@@ -4,9 +4,9 @@
 mod common;
 
 use glam::DVec3;
-use globe::clipmap::ClipmapSettings;
 use globe::clipmap::selection::LevelStatus;
 use globe::clipmap::settings::level_outer_theta_rad;
+use globe::clipmap::{ClipmapSettings, TransformForm};
 use globe::geo::camera::Camera;
 use globe::geo::projection;
 use globe::render::offscreen::{COLOR_FORMAT, OffscreenFrame, RenderedFrame};
@@ -403,5 +403,117 @@ fn crossing_the_antimeridian_and_greenwich_is_continuous() {
             fresh <= 16,
             "toroidal update differs from a fresh fill at lon {lon} in {fresh} channel values"
         );
+    }
+}
+
+/// Sky pixels below the first terrain pixel of their column: a crack in the surface (a
+/// height field seen from above has none). Fig. 14: the approximation needs its blend.
+fn holes(frame: &RenderedFrame) -> usize {
+    let mut holes = 0;
+    for x in 0..frame.width {
+        let first = (0..frame.height).find(|&y| frame.depth_at(x, y) > 0.0);
+        if let Some(first) = first {
+            holes += (first..frame.height)
+                .filter(|&y| frame.depth_at(x, y) == 0.0)
+                .count();
+        }
+    }
+    holes
+}
+
+#[test]
+fn every_transform_form_renders_without_cracks() {
+    let Some((ctx, _guard)) = common::gpu() else {
+        return;
+    };
+    for form in TransformForm::ALL {
+        let settings = ClipmapSettings {
+            transform: form,
+            ..Default::default()
+        };
+        let mut r =
+            TerrainRenderer::new(&ctx.device, settings, AnalyticPlanet::earth(), COLOR_FORMAT)
+                .unwrap();
+        for name in [
+            "aircraft",
+            "ground",
+            "north-pole",
+            "antimeridian",
+            "everest",
+        ] {
+            let camera = scene_camera(&r, name);
+            let frame = render(ctx, &mut r, &camera, 320, 180);
+            let n = holes(&frame);
+            assert_eq!(
+                n,
+                0,
+                "{} form, {name}: {n} sky pixels inside the terrain",
+                form.name()
+            );
+        }
+    }
+}
+
+/// Each map-transform form's error and cost, for the README. Ignored (slow); run with
+/// `cargo test --release --test render_scenes -- --ignored --nocapture transform_forms`.
+#[test]
+#[ignore]
+fn transform_forms() {
+    let Some((ctx, _guard)) = common::gpu() else {
+        return;
+    };
+    let (w, h) = (960, 540);
+    eprintln!(
+        "{:<10} {:<12} {:>9} {:>9} {:>9} {:>10}",
+        "scene", "form", "mean ρ", "p99 ρ", "max ρ", "frame ms"
+    );
+    for name in ["aircraft", "ground"] {
+        for form in TransformForm::ALL {
+            let settings = ClipmapSettings {
+                transform: form,
+                ..Default::default()
+            };
+            let mut r =
+                TerrainRenderer::new(&ctx.device, settings, AnalyticPlanet::earth(), COLOR_FORMAT)
+                    .unwrap();
+            let camera = scene_camera(&r, name);
+            let target = OffscreenFrame::new(&ctx.device, w, h);
+            let mut frame = target.render(ctx, &mut r, &camera).unwrap();
+            // Later frames draw the same view with nothing left to fill: the median of five is
+            // the cost of the terrain pass (and the readback) alone.
+            let mut times = Vec::new();
+            for _ in 0..5 {
+                let t = std::time::Instant::now();
+                frame = target.render(ctx, &mut r, &camera).unwrap();
+                times.push(t.elapsed().as_secs_f64() * 1e3);
+            }
+            times.sort_by(f64::total_cmp);
+            let view = camera.view_frame();
+            let radius = r.planet.radius_m;
+            let px_per_rad = h as f64 / camera.fov_y_rad();
+            let eye = DVec3::new(0.0, 0.0, radius + camera.altitude_m);
+            let mut rho = Vec::new();
+            for y in (0..h).step_by(3) {
+                for x in (0..w).step_by(3) {
+                    let Some(p) = surface_point_view(&camera, &frame, x, y, radius) else {
+                        continue;
+                    };
+                    let err = (p.length()
+                        - radius
+                        - r.planet.height_m(view.world_from_view * p.normalize()))
+                    .abs();
+                    rho.push(err * px_per_rad / (p - eye).length());
+                }
+            }
+            rho.sort_by(f64::total_cmp);
+            let mean = rho.iter().sum::<f64>() / rho.len() as f64;
+            let p99 = rho[(rho.len() as f64 * 0.99) as usize];
+            eprintln!(
+                "{name:<10} {:<12} {mean:>9.4} {p99:>9.4} {:>9.4} {:>10.1}",
+                form.name(),
+                rho[rho.len() - 1],
+                times[2]
+            );
+        }
     }
 }

@@ -72,7 +72,7 @@ fn create_event_loop() -> Result<EventLoop<()>, UiError> {
     match built {
         Ok(Ok(event_loop)) => Ok(event_loop),
         Ok(Err(e @ (EventLoopError::Os(_) | EventLoopError::NotSupported(_)))) => {
-            Err(UiError::NoDisplay(e.to_string()))
+            Err(UiError::no_display(e))
         }
         Ok(Err(e)) => Err(UiError::Window(e.to_string())),
         Err(panic) => {
@@ -81,7 +81,7 @@ fn create_event_loop() -> Result<EventLoop<()>, UiError> {
                 .cloned()
                 .or_else(|| panic.downcast_ref::<&str>().map(|s| s.to_string()))
                 .unwrap_or_else(|| "the window system panicked".to_owned());
-            Err(UiError::NoDisplay(text))
+            Err(UiError::no_display(text))
         }
     }
 }
@@ -121,7 +121,7 @@ impl Gpu {
         let window = Arc::new(
             event_loop
                 .create_window(attributes)
-                .map_err(|e| UiError::NoDisplay(format!("could not open a window: {e}")))?,
+                .map_err(|e| UiError::no_display(format!("could not open a window: {e}")))?,
         );
         let instance = wgpu::Instance::new(
             wgpu::InstanceDescriptor::new_with_display_handle_from_env(Box::new(display.clone())),
@@ -623,6 +623,8 @@ impl App {
     }
 
     fn finish_smoke(&mut self, event_loop: &ActiveEventLoop) {
+        // Once only, even if more frames are drawn before the loop stops.
+        self.smoke_frames = None;
         match self.screenshot() {
             Ok(path) => {
                 let info = self.last_info.as_ref();
@@ -640,6 +642,16 @@ impl App {
             }
             Err(e) => self.fail(event_loop, e),
         }
+    }
+
+    /// Whether the pointer, where it is now, belongs to the panel (or a popup of it).
+    fn pointer_over_egui(&self, egui_ctx: &egui::Context) -> bool {
+        let Some(cursor) = self.input.cursor else {
+            return egui_ctx.egui_is_using_pointer();
+        };
+        let scale = f64::from(egui_ctx.pixels_per_point());
+        let pos = egui::pos2((cursor.x / scale) as f32, (cursor.y / scale) as f32);
+        self.panel.owns_pointer(egui_ctx, pos)
     }
 
     fn on_key(&mut self, event: &KeyEvent, egui_wants_keys: bool) {
@@ -756,14 +768,12 @@ impl ApplicationHandler for App {
                 self.on_key(&event, egui_wants_keys);
             }
             WindowEvent::MouseInput { state, button, .. } => {
-                let over_egui = response.consumed || egui_ctx.egui_wants_pointer_input();
+                let over_egui = self.pointer_over_egui(&egui_ctx);
                 self.on_mouse_button(button, state, over_egui);
             }
             WindowEvent::CursorMoved { position, .. } => self.on_cursor_moved(position),
             WindowEvent::CursorLeft { .. } => self.input.cursor = None,
-            WindowEvent::MouseWheel { delta, .. }
-                if !(response.consumed || egui_ctx.is_pointer_over_egui()) =>
-            {
+            WindowEvent::MouseWheel { delta, .. } if !self.pointer_over_egui(&egui_ctx) => {
                 self.on_wheel(delta);
             }
             _ => {}

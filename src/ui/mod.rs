@@ -54,10 +54,9 @@ impl Default for ViewerOptions {
 /// Why the viewer could not run.
 #[derive(Debug, thiserror::Error)]
 pub enum UiError {
-    /// No X server to open a window on. The text says why (winit's error or the unset variable).
-    #[error(
-        "no display available (DISPLAY/WAYLAND_DISPLAY unset or unreachable); use `globe render --scene NAME --out FILE.png` for headless rendering ({0})"
-    )]
+    /// No X server to open a window on. The text is complete (see [`UiError::no_display`]):
+    /// what is missing, why (winit's error or the unset variable), and the headless alternative.
+    #[error("{0}")]
     NoDisplay(String),
     #[error("unknown scene '{0}' (expected one of: {names})", names = scene_names())]
     UnknownScene(String),
@@ -72,6 +71,15 @@ pub enum UiError {
     /// A screenshot could not be rendered or saved.
     #[error("screenshot: {0}")]
     Screenshot(String),
+}
+
+impl UiError {
+    /// [`UiError::NoDisplay`] with the standard advice and `detail` (what exactly failed).
+    pub fn no_display(detail: impl std::fmt::Display) -> Self {
+        Self::NoDisplay(format!(
+            "no display available (DISPLAY/WAYLAND_DISPLAY unset or unreachable); use `globe render --scene NAME --out FILE.png` for headless rendering ({detail})"
+        ))
+    }
 }
 
 /// Opens the viewer window and runs until it is closed.
@@ -98,7 +106,7 @@ fn check_display(var: impl Fn(&str) -> Option<String>) -> Result<(), UiError> {
     } else {
         "neither DISPLAY nor WAYLAND_DISPLAY is set"
     };
-    Err(UiError::NoDisplay(detail.to_owned()))
+    Err(UiError::no_display(detail))
 }
 
 #[cfg(test)]
@@ -124,9 +132,11 @@ mod tests {
         ] {
             match check_display(env(pairs)) {
                 Err(e @ UiError::NoDisplay(_)) => {
-                    let text = e.to_string();
-                    assert!(text.contains("no display available"), "{text}");
-                    assert!(text.contains("globe render --scene NAME --out FILE.png"));
+                    let UiError::NoDisplay(payload) = &e else {
+                        unreachable!()
+                    };
+                    assert_eq!(&e.to_string(), payload);
+                    assert!(payload.starts_with("no display available (DISPLAY/WAYLAND_DISPLAY unset or unreachable); use `globe render --scene NAME --out FILE.png` for headless rendering ("), "{payload}");
                 }
                 other => panic!("{pairs:?}: expected NoDisplay, got {other:?}"),
             }
@@ -150,18 +160,37 @@ mod tests {
     }
 
     /// Opens the real window for a few frames, takes a screenshot and closes: needs a display
-    /// (e.g. `xvfb-run cargo test --lib ui::tests::viewer_smoke -- --ignored --nocapture`).
-    /// `GLOBE_VIEWER_SMOKE_SCENE` picks the scene, `GLOBE_VIEWER_SMOKE_FRAMES` the frame count.
+    /// (e.g. `xvfb-run cargo test --lib ui::tests::viewer_smoke -- --ignored --nocapture`) and
+    /// skips without one. `GLOBE_VIEWER_SMOKE_SCENE` picks the scene, `GLOBE_VIEWER_SMOKE_FRAMES`
+    /// the frame count, `GLOBE_VIEWER_SMOKE_OVERLAY` turns the level overlay on; the screenshot
+    /// is deleted afterwards unless `GLOBE_VIEWER_SMOKE_KEEP` is set.
     #[test]
-    #[ignore = "needs a display"]
+    #[ignore = "opens a window"]
     fn viewer_smoke() {
+        if check_display(|name| std::env::var(name).ok()).is_err() {
+            eprintln!("skipped: no display");
+            return;
+        }
+        let screenshots = || -> std::collections::BTreeSet<std::path::PathBuf> {
+            std::fs::read_dir(".")
+                .into_iter()
+                .flatten()
+                .flatten()
+                .map(|e| e.path())
+                .filter(|p| {
+                    p.file_name()
+                        .and_then(|n| n.to_str())
+                        .is_some_and(|n| n.starts_with("globe-screenshot-") && n.ends_with(".png"))
+                })
+                .collect()
+        };
+        let before = screenshots();
         let scene = std::env::var("GLOBE_VIEWER_SMOKE_SCENE").unwrap_or_else(|_| "aircraft".into());
         let frames = std::env::var(app::SMOKE_FRAMES_ENV)
             .ok()
             .and_then(|v| v.parse().ok())
             .unwrap_or(30);
         let overlay_levels = std::env::var("GLOBE_VIEWER_SMOKE_OVERLAY").is_ok();
-        check_display(|name| std::env::var(name).ok()).expect("a display");
         let scene = Scene::by_name(&scene).expect("a scene name");
         let options = ViewerOptions {
             scene: scene.name.into(),
@@ -169,6 +198,13 @@ mod tests {
             ..Default::default()
         };
         app::run(scene, options, Some(frames)).expect("the viewer runs");
+        let new: Vec<_> = screenshots().difference(&before).cloned().collect();
+        assert!(!new.is_empty(), "the smoke run saved no screenshot");
+        if std::env::var("GLOBE_VIEWER_SMOKE_KEEP").is_err() {
+            for path in new {
+                let _ = std::fs::remove_file(path);
+            }
+        }
     }
 
     #[test]

@@ -158,6 +158,8 @@ pub struct Panel {
     pub message: Option<String>,
     /// Path of the last screenshot.
     pub last_screenshot: Option<String>,
+    /// Where the panel was drawn last frame, in points.
+    pub rect: Option<egui::Rect>,
 }
 
 impl Panel {
@@ -166,6 +168,7 @@ impl Panel {
             draft: MeshDraft::from_settings(settings),
             message: None,
             last_screenshot: None,
+            rect: None,
         }
     }
 
@@ -177,7 +180,7 @@ impl Panel {
         live: &mut LiveSettings,
     ) -> Vec<PanelAction> {
         let mut actions = Vec::new();
-        egui::Panel::left("globe panel")
+        let response = egui::Panel::left("globe panel")
             .resizable(true)
             .default_size(320.0)
             .show(ui, |ui| {
@@ -185,7 +188,20 @@ impl Panel {
                     self.contents(ui, readout, live, &mut actions);
                 });
             });
+        self.rect = Some(response.response.rect);
         actions
+    }
+
+    /// Whether a pointer at `pos` (points) is egui's: over the panel, over a popup or tooltip,
+    /// or egui is in the middle of a drag. Unlike `egui_wants_pointer_input`, which knows the
+    /// pointer only as of the last frame, this uses the position now, so a quick move from the
+    /// panel to the terrain followed by a click goes to the terrain.
+    pub fn owns_pointer(&self, ctx: &egui::Context, pos: egui::Pos2) -> bool {
+        let over_panel = self.rect.is_some_and(|r| r.contains(pos));
+        let over_popup = ctx
+            .layer_id_at(pos)
+            .is_some_and(|layer| layer.order != egui::Order::Background);
+        over_panel || over_popup || ctx.egui_is_using_pointer()
     }
 
     fn contents(
@@ -396,7 +412,7 @@ fn frame_section(ui: &mut egui::Ui, readout: &Readout<'_>) {
                 "θ̃min = {} (one pixel below the viewer)",
                 format_deg(sel.theta_min_rad.to_degrees())
             ));
-            ui.small("level i covers θ̃ ∈ (outer/2, outer]");
+            ui.small("level i covers θ̃ in (outer/2, outer]");
             egui::Grid::new("level table")
                 .striped(true)
                 .num_columns(4)
