@@ -517,3 +517,41 @@ fn transform_forms() {
         }
     }
 }
+
+/// Frustum culling of sectors never removes anything visible: drawing every sector gives the
+/// same image in every named scene.
+#[test]
+fn culled_sectors_are_really_outside_the_view() {
+    let Some((ctx, _guard)) = common::gpu() else {
+        return;
+    };
+    let mut r = renderer(ctx);
+    for scene in globe::scenes::SCENES {
+        let camera = scene_camera(&r, scene.name);
+        let (w, h) = (320, 180);
+        r.draw_all_sectors = false;
+        let culled = render(ctx, &mut r, &camera, w, h);
+        r.draw_all_sectors = true;
+        let everything = render(ctx, &mut r, &camera, w, h);
+        r.draw_all_sectors = false;
+        let differing = culled
+            .rgba
+            .chunks(4)
+            .zip(everything.rgba.chunks(4))
+            .filter(|(a, b)| a != b)
+            .count();
+        eprintln!(
+            "{}: {} of {} sectors culled, {} → {} triangles, {differing} px differ",
+            scene.name,
+            culled.info.draw.sectors_culled,
+            culled.info.draw.sectors_culled + culled.info.draw.sectors_drawn,
+            everything.info.draw.triangles,
+            culled.info.draw.triangles
+        );
+        assert_eq!(
+            differing, 0,
+            "{}: culling removed visible terrain",
+            scene.name
+        );
+    }
+}

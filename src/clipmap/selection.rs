@@ -98,74 +98,98 @@ pub struct Sphere {
     pub radius_m: f64,
 }
 
-/// Bounding spheres of every (level, sector) band and cap for a terrain height range.
+/// A cone of directions from the planet's centre (unit axis, half-angle): the angular extent of
+/// one mesh patch, independent of terrain heights, so it is computed once.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Cone {
+    pub axis: DVec3,
+    pub half_angle_rad: f64,
+}
+
+impl Cone {
+    /// The smallest sphere holding {r·u : u in the cone, r ∈ [r_lo, r_hi]}. Distance from a
+    /// point on the axis grows with the angle and is convex in r, so the farthest points are
+    /// the four extremes (r_lo or r_hi, on the axis or on the rim).
+    pub fn bounding_sphere(&self, r_lo_m: f64, r_hi_m: f64) -> Sphere {
+        let (sin_b, cos_b) = self.half_angle_rad.min(std::f64::consts::PI).sin_cos();
+        let lo_along = r_lo_m * cos_b.min(1.0);
+        let centre_along = 0.5 * (lo_along.min(r_lo_m) + r_hi_m);
+        let far = |r: f64| {
+            let rim = ((r * cos_b - centre_along).powi(2) + (r * sin_b).powi(2)).sqrt();
+            rim.max((r - centre_along).abs())
+        };
+        Sphere {
+            centre_m: self.axis * centre_along,
+            radius_m: far(r_lo_m).max(far(r_hi_m)),
+        }
+    }
+}
+
+/// The direction cones of every (level, sector) band and cap of a mesh.
 #[derive(Clone, Debug)]
 pub struct SectorBounds {
-    pub bands: Vec<Vec<Sphere>>,
-    pub caps: Vec<Vec<Sphere>>,
-    pub radius_m: f64,
-    pub height_range_m: (f64, f64),
+    pub bands: Vec<Vec<Cone>>,
+    pub caps: Vec<Vec<Cone>>,
 }
 
 impl SectorBounds {
-    pub fn new(mesh: &RingMesh, radius_m: f64, min_height_m: f64, max_height_m: f64) -> Self {
+    pub fn new(mesh: &RingMesh) -> Self {
         let levels = mesh.bands.len() as u32;
-        let r = (radius_m + min_height_m, radius_m + max_height_m);
         let mut bands = Vec::new();
         let mut caps = Vec::new();
         for level in 0..levels {
             let outer = level_outer_theta_rad(level);
             let inner = 0.5 * outer;
-            let mut b = Vec::new();
-            let mut c = Vec::new();
-            for s in 0..mesh.sectors {
-                let phi = mesh.sector_phi_range_rad(s);
-                b.push(patch_bound(phi, (inner, outer), r));
-                c.push(patch_bound(phi, (0.0, inner), r));
-            }
-            bands.push(b);
-            caps.push(c);
+            let phis: Vec<(f64, f64)> = (0..mesh.sectors)
+                .map(|s| mesh.sector_phi_range_rad(s))
+                .collect();
+            bands.push(
+                phis.iter()
+                    .map(|phi| patch_cone(*phi, (inner, outer)))
+                    .collect(),
+            );
+            caps.push(
+                phis.iter()
+                    .map(|phi| patch_cone(*phi, (0.0, inner)))
+                    .collect(),
+            );
         }
-        Self {
-            bands,
-            caps,
-            radius_m,
-            height_range_m: (min_height_m, max_height_m),
-        }
+        Self { bands, caps }
     }
 }
 
-/// A conservative sphere around the patch: samples on a 9×9 grid at both radii, then grown by
-/// the largest arc sagitta between neighbouring samples.
-fn patch_bound(phi: (f64, f64), theta: (f64, f64), radius: (f64, f64)) -> Sphere {
+/// A cone around the patch: the axis through its sampled directions, the half-angle to the
+/// farthest sample plus half the largest gap between samples (no direction between samples is
+/// farther from the axis than its nearest sample plus that).
+fn patch_cone(phi: (f64, f64), theta: (f64, f64)) -> Cone {
     const N: usize = 9;
-    let mut lo = DVec3::splat(f64::INFINITY);
-    let mut hi = DVec3::splat(f64::NEG_INFINITY);
-    let mut points = Vec::with_capacity(N * N * 2);
+    let mut dirs = Vec::with_capacity(N * N);
     for a in 0..N {
         let ph = phi.0 + (phi.1 - phi.0) * a as f64 / (N - 1) as f64;
         for b in 0..N {
             let th = theta.0 + (theta.1 - theta.0) * b as f64 / (N - 1) as f64;
-            let dir = DVec3::new(ph.cos() * th.sin(), ph.sin() * th.sin(), th.cos());
-            for rad in [radius.0, radius.1] {
-                let p = dir * rad;
-                lo = lo.min(p);
-                hi = hi.max(p);
-                points.push(p);
-            }
+            dirs.push(DVec3::new(
+                ph.cos() * th.sin(),
+                ph.sin() * th.sin(),
+                th.cos(),
+            ));
         }
     }
-    let centre = 0.5 * (lo + hi);
-    let spread = points
+    let sum: DVec3 = dirs.iter().copied().sum();
+    let axis = if sum.length() > 1e-12 {
+        sum.normalize()
+    } else {
+        DVec3::Z
+    };
+    let spread = dirs
         .iter()
-        .map(|p| (*p - centre).length())
+        .map(|d| d.dot(axis).clamp(-1.0, 1.0).acos())
         .fold(0.0, f64::max);
-    let step = ((theta.1 - theta.0) / (N - 1) as f64)
+    let gap = ((theta.1 - theta.0) / (N - 1) as f64)
         .max((phi.1 - phi.0) / (N - 1) as f64 * theta.1.sin());
-    let sagitta = radius.1 * (1.0 - (0.5 * step.min(std::f64::consts::PI)).cos());
-    Sphere {
-        centre_m: centre,
-        radius_m: spread + sagitta,
+    Cone {
+        axis,
+        half_angle_rad: spread + 0.5 * gap,
     }
 }
 
@@ -225,16 +249,19 @@ pub struct DrawList {
 
 impl DrawList {
     /// Visible sectors of the drawn levels plus the cap of the finest one; adjacent index
-    /// ranges are merged into one draw call.
+    /// ranges are merged into one draw call (no frustum: nothing culled, for tests).
+    /// `radius_range_m(level)` bounds the distance from
+    /// the planet's centre of the terrain within that level's outer ring.
     pub fn build(
         mesh: &RingMesh,
         bounds: &SectorBounds,
         selection: &LevelSelection,
-        frustum: &Frustum,
+        frustum: Option<&Frustum>,
+        radius_range_m: impl Fn(u32) -> (f64, f64),
     ) -> Self {
         let mut list = DrawList::default();
         let push = |list: &mut DrawList, range: &Range<u32>, sphere: &Sphere| {
-            if !frustum.intersects(sphere) {
+            if frustum.is_some_and(|f| !f.intersects(sphere)) {
                 list.sectors_culled += 1;
                 return;
             }
@@ -246,16 +273,18 @@ impl DrawList {
             }
         };
         for level in selection.drawn_levels() {
-            for (range, sphere) in mesh.bands[level as usize]
+            let (lo, hi) = radius_range_m(level);
+            for (range, cone) in mesh.bands[level as usize]
                 .iter()
                 .zip(&bounds.bands[level as usize])
             {
-                push(&mut list, range, sphere);
+                push(&mut list, range, &cone.bounding_sphere(lo, hi));
             }
         }
         let f = selection.finest as usize;
-        for (range, sphere) in mesh.caps[f].iter().zip(&bounds.caps[f]) {
-            push(&mut list, range, sphere);
+        let (lo, hi) = radius_range_m(selection.finest);
+        for (range, cone) in mesh.caps[f].iter().zip(&bounds.caps[f]) {
+            push(&mut list, range, &cone.bounding_sphere(lo, hi));
         }
         list
     }
@@ -275,5 +304,28 @@ mod tests {
         assert_eq!(sel.status[0], LevelStatus::BeyondHorizon);
         assert!(level_outer_theta_rad(sel.coarsest) * 0.5 < 0.06);
         assert!(level_outer_theta_rad(sel.coarsest - 1) * 0.5 >= 0.06);
+    }
+
+    /// The cone sphere holds every point of the shell sector it bounds.
+    #[test]
+    fn cone_spheres_hold_their_patches() {
+        for (phi, theta) in [
+            ((0.0, 0.2), (0.5, 1.0)),
+            ((1.0, 1.2), (0.0, 0.01)),
+            ((3.0, 3.2), (1.5, 3.1)),
+        ] {
+            let cone = patch_cone(phi, theta);
+            let sphere = cone.bounding_sphere(6.36e6, 6.38e6);
+            for a in 0..40 {
+                for b in 0..40 {
+                    let ph = phi.0 + (phi.1 - phi.0) * a as f64 / 39.0;
+                    let th = theta.0 + (theta.1 - theta.0) * b as f64 / 39.0;
+                    for r in [6.36e6, 6.37e6, 6.38e6] {
+                        let p = DVec3::new(ph.cos() * th.sin(), ph.sin() * th.sin(), th.cos()) * r;
+                        assert!((p - sphere.centre_m).length() <= sphere.radius_m * (1.0 + 1e-12));
+                    }
+                }
+            }
+        }
     }
 }

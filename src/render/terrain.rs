@@ -99,6 +99,8 @@ pub struct TerrainRenderer {
     /// Debug: draw every level of the mesh regardless of the visibility bounds (tests use it to
     /// show that the levels the bounds skip contribute nothing to the image).
     pub draw_all_levels: bool,
+    /// Debug: draw every sector, including those outside the frustum.
+    pub draw_all_sectors: bool,
     mesh: RingMesh,
     bounds: SectorBounds,
     vertex_buffer: wgpu::Buffer,
@@ -127,8 +129,7 @@ impl TerrainRenderer {
             ));
         }
         let mesh = RingMesh::build(&settings);
-        let (hmin, hmax) = planet.height_range_m();
-        let bounds = SectorBounds::new(&mesh, planet.radius_m, hmin, hmax);
+        let bounds = SectorBounds::new(&mesh);
 
         let vertex_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("ring vertices"),
@@ -277,6 +278,7 @@ impl TerrainRenderer {
             planet,
             overlays: Overlays::default(),
             draw_all_levels: false,
+            draw_all_sectors: false,
             mesh,
             bounds,
             vertex_buffer,
@@ -332,7 +334,23 @@ impl TerrainRenderer {
         let camera_from_view = camera.view_from_camera().transpose();
         let eye_view_m = DVec3::new(0.0, 0.0, radius_m + camera.altitude_m);
         let frustum = Frustum::new(camera_from_view, eye_view_m, fov_y_rad, aspect, near_m);
-        let draw = DrawList::build(&self.mesh, &self.bounds, &selection, &frustum);
+        // Terrain radii within each level's outer ring, from the height source's local bounds.
+        let nadir = sphere::unit_vector(frame.phi_v, theta_v);
+        let planet = &self.planet;
+        let radius_range_m = |level: u32| {
+            let (lo, hi) = planet.height_bounds_near_m(
+                nadir,
+                crate::clipmap::settings::level_outer_theta_rad(level),
+            );
+            (radius_m + lo, radius_m + hi)
+        };
+        let draw = DrawList::build(
+            &self.mesh,
+            &self.bounds,
+            &selection,
+            (!self.draw_all_sectors).then_some(&frustum),
+            radius_range_m,
+        );
 
         // Texture windows: the drawn levels and the one their outer rings blend into.
         let first = selection.coarsest.saturating_sub(1);

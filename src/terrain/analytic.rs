@@ -137,6 +137,20 @@ impl AnalyticPlanet {
             .sum()
     }
 
+    /// Bounds of h within an arc of `angle_rad` around `u`: each scale's product of sines has a
+    /// gradient of at most 2·A·ω per radian of arc and a range of 2·A, so
+    /// |h(p) − h(u)| ≤ Σ min(2A, 2A·ω·angle). Tight near the viewer, where culling needs it.
+    pub fn height_bounds_near_m(&self, u: DVec3, angle_rad: f64) -> (f64, f64) {
+        let h = self.height_m(u);
+        let spread: f64 = self
+            .scales
+            .iter()
+            .map(|s| 2.0 * s.amplitude_m * (s.omega * angle_rad).min(1.0))
+            .sum();
+        let (lo, hi) = self.height_range_m();
+        ((h - spread).max(lo), (h + spread).min(hi))
+    }
+
     /// Parameters for the GPU to evaluate the band-limited height near `(phi_r, theta_r)`.
     pub fn gpu_waves(
         &self,
@@ -195,6 +209,27 @@ pub struct WaveParams {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn local_bounds_hold() {
+        let p = AnalyticPlanet::earth();
+        let centre = crate::geo::sphere::unit_vector(0.3, 0.8);
+        for angle in [1e-7, 1e-5, 1e-3, 0.1] {
+            let (lo, hi) = p.height_bounds_near_m(centre, angle);
+            for i in 0..400 {
+                let t = i as f64 / 400.0;
+                let u = crate::geo::sphere::unit_vector(
+                    0.3 + angle * (t * 37.0).sin() * 0.7,
+                    0.8 + angle * (t * 23.0).cos() * 0.7,
+                );
+                let h = p.height_m(u);
+                assert!(
+                    h >= lo - 1e-9 && h <= hi + 1e-9,
+                    "angle {angle}: {h} outside [{lo}, {hi}]"
+                );
+            }
+        }
+    }
 
     #[test]
     fn heights_are_bounded_and_smooth_at_the_poles() {
