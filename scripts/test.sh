@@ -6,8 +6,11 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 
 have_vulkan() {
-    ldconfig -p 2>/dev/null | grep -q 'libvulkan.so.1' &&
-        ls /usr/share/vulkan/icd.d/*.json /etc/vulkan/icd.d/*.json 2>/dev/null | grep -q .
+    # No early-exiting pipes here: under pipefail a SIGPIPE would read as "missing".
+    local loader icd
+    loader=$(ldconfig -p 2>/dev/null | grep -c 'libvulkan\.so\.1' || true)
+    icd=$(find /usr/share/vulkan/icd.d /etc/vulkan/icd.d -name '*.json' 2>/dev/null || true)
+    [ "${loader:-0}" -gt 0 ] && [ -n "$icd" ]
 }
 
 if ! have_vulkan; then
