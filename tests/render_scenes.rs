@@ -67,6 +67,47 @@ fn surface_point_view(
     Some(DVec3::new(0.0, 0.0, radius_m + camera.altitude_m) + camera.view_from_camera() * p_cam)
 }
 
+/// ρ (the error-bounded paper's screen-space error, eq. 3: λ·δ/distance in pixels) of every
+/// `step`-th pixel against the analytic planet: mean, p99 and max.
+fn rho_stats(
+    camera: &Camera,
+    frame: &RenderedFrame,
+    planet: &AnalyticPlanet,
+    step: usize,
+) -> (f64, f64, f64) {
+    let view = camera.view_frame();
+    let radius = planet.radius_m;
+    let px_per_rad = frame.height as f64 / camera.fov_y_rad();
+    let eye = DVec3::new(0.0, 0.0, radius + camera.altitude_m);
+    let mut rho = Vec::new();
+    for y in (0..frame.height).step_by(step) {
+        for x in (0..frame.width).step_by(step) {
+            let Some(p) = surface_point_view(camera, frame, x, y, radius) else {
+                continue;
+            };
+            let err =
+                (p.length() - radius - planet.height_m(view.world_from_view * p.normalize())).abs();
+            rho.push(err * px_per_rad / (p - eye).length());
+        }
+    }
+    rho.sort_by(f64::total_cmp);
+    let mean = rho.iter().sum::<f64>() / rho.len() as f64;
+    (
+        mean,
+        rho[(rho.len() as f64 * 0.99) as usize],
+        rho[rho.len() - 1],
+    )
+}
+
+/// Pixels whose colour differs at all between two frames of the same size.
+fn pixels_differing(a: &RenderedFrame, b: &RenderedFrame) -> usize {
+    a.rgba
+        .chunks(4)
+        .zip(b.rgba.chunks(4))
+        .filter(|(x, y)| x != y)
+        .count()
+}
+
 /// `space`: the disk's radius is the one geometry predicts within 1 px, centred on the image.
 #[test]
 fn space_disk_radius_and_centre_match_geometry() {
@@ -215,12 +256,7 @@ fn skipped_levels_are_really_invisible() {
         r.draw_all_levels = true;
         let everything = render(ctx, &mut r, &camera, w, h);
         r.draw_all_levels = false;
-        let differing = selected
-            .rgba
-            .chunks(4)
-            .zip(everything.rgba.chunks(4))
-            .filter(|(a, b)| a != b)
-            .count();
+        let differing = pixels_differing(&selected, &everything);
         eprintln!(
             "{name}: drew levels {:?} ({} triangles); all {} levels ({} triangles) differ in {differing} px",
             sel.drawn_levels(),
@@ -331,27 +367,7 @@ fn settings_sweep() {
         for name in ["aircraft", "ground"] {
             let camera = scene_camera(&r, name);
             let frame = render(ctx, &mut r, &camera, w, h);
-            let view = camera.view_frame();
-            let radius = r.planet.radius_m;
-            let px_per_rad = h as f64 / camera.fov_y_rad();
-            let eye = DVec3::new(0.0, 0.0, radius + camera.altitude_m);
-            let mut rho = Vec::new();
-            for y in (0..h).step_by(3) {
-                for x in (0..w).step_by(3) {
-                    let Some(p) = surface_point_view(&camera, &frame, x, y, radius) else {
-                        continue;
-                    };
-                    let err = (p.length()
-                        - radius
-                        - r.planet.height_m(view.world_from_view * p.normalize()))
-                    .abs();
-                    rho.push(err * px_per_rad / (p - eye).length());
-                }
-            }
-            rho.sort_by(f64::total_cmp);
-            let mean = rho.iter().sum::<f64>() / rho.len() as f64;
-            let p99 = rho[(rho.len() as f64 * 0.99) as usize];
-            let max = rho[rho.len() - 1];
+            let (mean, p99, max) = rho_stats(&camera, &frame, &r.planet, 3);
             eprintln!(
                 "{name:<10} {n:>5} {m:>4} {tex:>6} {:>10} {mean:>9.4} {p99:>9.4} {max:>9.4}",
                 frame.info.draw.triangles
@@ -488,30 +504,10 @@ fn transform_forms() {
                 times.push(t.elapsed().as_secs_f64() * 1e3);
             }
             times.sort_by(f64::total_cmp);
-            let view = camera.view_frame();
-            let radius = r.planet.radius_m;
-            let px_per_rad = h as f64 / camera.fov_y_rad();
-            let eye = DVec3::new(0.0, 0.0, radius + camera.altitude_m);
-            let mut rho = Vec::new();
-            for y in (0..h).step_by(3) {
-                for x in (0..w).step_by(3) {
-                    let Some(p) = surface_point_view(&camera, &frame, x, y, radius) else {
-                        continue;
-                    };
-                    let err = (p.length()
-                        - radius
-                        - r.planet.height_m(view.world_from_view * p.normalize()))
-                    .abs();
-                    rho.push(err * px_per_rad / (p - eye).length());
-                }
-            }
-            rho.sort_by(f64::total_cmp);
-            let mean = rho.iter().sum::<f64>() / rho.len() as f64;
-            let p99 = rho[(rho.len() as f64 * 0.99) as usize];
+            let (mean, p99, max) = rho_stats(&camera, &frame, &r.planet, 3);
             eprintln!(
-                "{name:<10} {:<12} {mean:>9.4} {p99:>9.4} {:>9.4} {:>10.1}",
+                "{name:<10} {:<12} {mean:>9.4} {p99:>9.4} {max:>9.4} {:>10.1}",
                 form.name(),
-                rho[rho.len() - 1],
                 times[2]
             );
         }
@@ -534,12 +530,7 @@ fn culled_sectors_are_really_outside_the_view() {
         r.draw_all_sectors = true;
         let everything = render(ctx, &mut r, &camera, w, h);
         r.draw_all_sectors = false;
-        let differing = culled
-            .rgba
-            .chunks(4)
-            .zip(everything.rgba.chunks(4))
-            .filter(|(a, b)| a != b)
-            .count();
+        let differing = pixels_differing(&culled, &everything);
         eprintln!(
             "{}: {} of {} sectors culled, {} → {} triangles, {differing} px differ",
             scene.name,

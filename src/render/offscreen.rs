@@ -81,33 +81,13 @@ impl OffscreenFrame {
         let info = renderer.prepare(&ctx.queue, &mut encoder, camera, self.width, self.height);
         let color_view = self.color.create_view(&Default::default());
         let depth_view = self.depth.create_view(&Default::default());
-        {
-            let [r, g, b] = info.sky_linear;
-            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("terrain"),
-                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                    view: &color_view,
-                    depth_slice: None,
-                    resolve_target: None,
-                    ops: wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(wgpu::Color { r, g, b, a: 1.0 }),
-                        store: wgpu::StoreOp::Store,
-                    },
-                })],
-                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                    view: &depth_view,
-                    depth_ops: Some(wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(0.0),
-                        store: wgpu::StoreOp::Store,
-                    }),
-                    stencil_ops: None,
-                }),
-                timestamp_writes: None,
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
-            renderer.draw(&mut pass, &info);
-        }
+        renderer.encode_pass(
+            &mut encoder,
+            &info,
+            &color_view,
+            &depth_view,
+            wgpu::StoreOp::Store,
+        );
         let color_buf = ReadbackBuffer::new(&ctx.device, self.width, self.height, 4);
         let depth_buf = ReadbackBuffer::new(&ctx.device, self.width, self.height, 4);
         color_buf.copy_from(&mut encoder, &self.color, wgpu::TextureAspect::All);

@@ -10,7 +10,7 @@ use wgpu::util::DeviceExt;
 
 use crate::clipmap::levels::LevelGrid;
 use crate::clipmap::selection::{DrawList, Frustum, LevelSelection, SectorBounds};
-use crate::clipmap::{ClipmapSettings, RingMesh, RingVertex, TransformForm};
+use crate::clipmap::{ClipmapSettings, RingMesh, RingVertex};
 use crate::geo::camera::Camera;
 use crate::geo::map_transform::{Stretch, TransformUniformsF32};
 use crate::geo::{projection, sphere, visibility};
@@ -426,6 +426,43 @@ impl TerrainRenderer {
         }
     }
 
+    /// Records a whole terrain pass: colour cleared to the sky, depth cleared to 0 (reversed-Z),
+    /// then the draw calls of `info`. `depth_store` keeps the depth for readback or discards it.
+    pub fn encode_pass(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        info: &FrameInfo,
+        color: &wgpu::TextureView,
+        depth: &wgpu::TextureView,
+        depth_store: wgpu::StoreOp,
+    ) {
+        let [r, g, b] = info.sky_linear;
+        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("terrain"),
+            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                view: color,
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(wgpu::Color { r, g, b, a: 1.0 }),
+                    store: wgpu::StoreOp::Store,
+                },
+            })],
+            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                view: depth,
+                depth_ops: Some(wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(0.0),
+                    store: depth_store,
+                }),
+                stencil_ops: None,
+            }),
+            timestamp_writes: None,
+            occlusion_query_set: None,
+            multiview_mask: None,
+        });
+        self.draw(&mut pass, info);
+    }
+
     /// Records the terrain draw calls of `info` into `pass`.
     pub fn draw(&self, pass: &mut wgpu::RenderPass<'_>, info: &FrameInfo) {
         pass.set_pipeline(&self.pipeline);
@@ -435,14 +472,6 @@ impl TerrainRenderer {
         for range in &info.draw.ranges {
             pass.draw_indexed(range.clone(), 0, 0..1);
         }
-    }
-
-    pub fn transform(&self) -> TransformForm {
-        self.settings.transform
-    }
-
-    pub fn mesh(&self) -> &RingMesh {
-        &self.mesh
     }
 }
 
