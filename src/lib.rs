@@ -5,6 +5,7 @@
 //! | module | concern |
 //! | --- | --- |
 //! | [`geo`] | f64 sphere math, camera, the map transform (3 forms) and visibility bounds |
+//! | [`dem`] | elevation rasters (EHdr/BIL, netCDF-3) and the tiled pyramid file |
 //! | [`terrain`] | height sources: the analytic test planet (later: the DEM pyramid) |
 //! | [`clipmap`] | ring mesh, level texture windows, level and sector selection |
 //! | [`render`] | wgpu plumbing: context, terrain pass, compute fill, offscreen target |
@@ -12,6 +13,7 @@
 //! | [`ui`] | the window: winit + egui |
 
 pub mod clipmap;
+pub mod dem;
 pub mod geo;
 pub mod render;
 pub mod scenes;

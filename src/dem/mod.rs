@@ -1,0 +1,35 @@
+//! Elevation data: readers for EHdr/BIL rasters (GTOPO30) and netCDF-3 (ETOPO5), and the tiled
+//! pyramid file the viewer memory-maps (DESIGN.md "Data").
+//!
+//! Every reader exposes a [`raster::RasterSource`]: a geographic grid of pixel centres and rows
+//! of heights in metres, `NaN` where the source has no data. The pyramid builder consumes any
+//! source row by row, so memory stays bounded whatever the raster's size.
+
+pub mod raster;
+
+pub use raster::{GeoGrid, RasterSource};
+
+/// Errors of the elevation-data layer. Every variant names the file and, where one applies,
+/// the header field or position, and what was expected.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum DemError {
+    #[error("{path}: {source}")]
+    Io {
+        path: std::path::PathBuf,
+        source: std::io::Error,
+    },
+    #[error("{path}: field {field}: {message}")]
+    Header {
+        path: std::path::PathBuf,
+        field: String,
+        message: String,
+    },
+    #[error("{path}: {message}")]
+    Data {
+        path: std::path::PathBuf,
+        message: String,
+    },
+    #[error("{0}")]
+    Other(String),
+}
