@@ -103,8 +103,10 @@ struct RenderArgs {
     /// Named scene to render (see `globe scenes`).
     #[arg(long)]
     scene: String,
+    /// Image width in pixels.
     #[arg(long, default_value_t = 1280)]
     width: u32,
+    /// Image height in pixels.
     #[arg(long, default_value_t = 720)]
     height: u32,
     /// Output PNG file.
@@ -113,6 +115,8 @@ struct RenderArgs {
     /// Debug overlay to draw.
     #[arg(long)]
     overlay: Option<Overlay>,
+    #[command(flatten)]
+    mesh: MeshArgs,
 }
 
 fn main() -> ExitCode {
@@ -135,7 +139,7 @@ fn run() -> anyhow::Result<ExitCode> {
             print_scenes();
             Ok(ExitCode::SUCCESS)
         }
-        Some(Command::Render(args)) => render(&args, &cli.viewer.mesh),
+        Some(Command::Render(args)) => render(&args),
         None => viewer(&cli.viewer),
     }
 }
@@ -169,7 +173,7 @@ fn print_scenes() {
     }
 }
 
-fn render(args: &RenderArgs, mesh: &MeshArgs) -> anyhow::Result<ExitCode> {
+fn render(args: &RenderArgs) -> anyhow::Result<ExitCode> {
     let scene = find_scene(&args.scene)?;
     if args.width == 0 || args.height == 0 || args.width > 16384 || args.height > 16384 {
         bail!(
@@ -178,7 +182,7 @@ fn render(args: &RenderArgs, mesh: &MeshArgs) -> anyhow::Result<ExitCode> {
             args.height
         );
     }
-    let settings = mesh.settings()?;
+    let settings = args.mesh.settings()?;
     let started = Instant::now();
     let ctx = GpuContext::headless().context("cannot render without a graphics adapter")?;
     eprintln!("adapter: {}", ctx.adapter_description());
