@@ -12,14 +12,14 @@ use globe::geo::projection;
 use globe::render::offscreen::{COLOR_FORMAT, OffscreenFrame, RenderedFrame};
 use globe::render::{GpuContext, TerrainRenderer};
 use globe::scenes::Scene;
-use globe::terrain::AnalyticPlanet;
 use globe::terrain::analytic::band_weight;
+use globe::terrain::{AnalyticPlanet, Terrain};
 
 fn renderer(ctx: &GpuContext) -> TerrainRenderer {
     TerrainRenderer::new(
         &ctx.device,
         ClipmapSettings::default(),
-        AnalyticPlanet::earth(),
+        Terrain::analytic_earth(),
         COLOR_FORMAT,
     )
     .unwrap()
@@ -130,7 +130,7 @@ fn space_disk_radius_and_centre_match_geometry() {
     }
     let radius_px = (count as f64 / std::f64::consts::PI).sqrt();
     // The silhouette cone of a sphere of radius R seen from distance R + H: sin α = R/(R + H).
-    let alpha = (r.planet.radius_m / (r.planet.radius_m + camera.altitude_m)).asin();
+    let alpha = (r.terrain.radius_m() / (r.terrain.radius_m() + camera.altitude_m)).asin();
     let focal_px = 0.5 * h as f64 / (0.5 * camera.fov_y_rad()).tan();
     let predicted_px = focal_px * alpha.tan();
     let (cx, cy) = (sx / count as f64, sy / count as f64);
@@ -187,7 +187,7 @@ fn check_heights(name: &str) {
     let (w, h) = (640, 360);
     let frame = render(ctx, &mut r, &camera, w, h);
     let view = camera.view_frame();
-    let radius = r.planet.radius_m;
+    let radius = r.terrain.radius_m();
     let (mut checked, mut worst_ratio, mut max_err, mut max_rho) = (0, 0.0f64, 0.0f64, 0.0f64);
     let px_per_rad = h as f64 / camera.fov_y_rad();
     for y in (0..h).step_by(7) {
@@ -197,12 +197,17 @@ fn check_heights(name: &str) {
             };
             let u_world = view.world_from_view * p_view.normalize();
             let rendered_h = p_view.length() - radius;
-            let true_h = r.planet.height_m(u_world);
+            let true_h = r.terrain.height_m(u_world);
             let err = (rendered_h - true_h).abs();
             let eye = DVec3::new(0.0, 0.0, radius + camera.altitude_m);
             let distance = (p_view - eye).length();
             let theta_tilde = p_view.normalize().z.clamp(-1.0, 1.0).acos();
-            let tol = height_tolerance_m(&r.planet, &r.settings, theta_tilde, distance);
+            let tol = height_tolerance_m(
+                r.terrain.analytic().unwrap(),
+                &r.settings,
+                theta_tilde,
+                distance,
+            );
             assert!(
                 err <= tol,
                 "{name}: pixel ({x},{y}) at {distance:.1} m: rendered {rendered_h:.4} m, true {true_h:.4} m, tolerance {tol:.4} m"
@@ -318,7 +323,7 @@ fn extreme_cameras_render_finite_frames() {
                 }
                 if pitch == -90.0 && above_terrain >= 1e9 {
                     let alpha =
-                        (r.planet.radius_m / (r.planet.radius_m + camera.altitude_m)).asin();
+                        (r.terrain.radius_m() / (r.terrain.radius_m() + camera.altitude_m)).asin();
                     let radius_px = 0.5 * h as f64 / (0.5 * camera.fov_y_rad()).tan() * alpha.tan();
                     let predicted = std::f64::consts::PI * radius_px * radius_px;
                     assert!(
@@ -361,13 +366,17 @@ fn settings_sweep() {
             texture_size: tex,
             ..Default::default()
         };
-        let mut r =
-            TerrainRenderer::new(&ctx.device, settings, AnalyticPlanet::earth(), COLOR_FORMAT)
-                .unwrap();
+        let mut r = TerrainRenderer::new(
+            &ctx.device,
+            settings,
+            Terrain::analytic_earth(),
+            COLOR_FORMAT,
+        )
+        .unwrap();
         for name in ["aircraft", "ground"] {
             let camera = scene_camera(&r, name);
             let frame = render(ctx, &mut r, &camera, w, h);
-            let (mean, p99, max) = rho_stats(&camera, &frame, &r.planet, 3);
+            let (mean, p99, max) = rho_stats(&camera, &frame, r.terrain.analytic().unwrap(), 3);
             eprintln!(
                 "{name:<10} {n:>5} {m:>4} {tex:>6} {:>10} {mean:>9.4} {p99:>9.4} {max:>9.4}",
                 frame.info.draw.triangles
@@ -447,9 +456,13 @@ fn every_transform_form_renders_without_cracks() {
             transform: form,
             ..Default::default()
         };
-        let mut r =
-            TerrainRenderer::new(&ctx.device, settings, AnalyticPlanet::earth(), COLOR_FORMAT)
-                .unwrap();
+        let mut r = TerrainRenderer::new(
+            &ctx.device,
+            settings,
+            Terrain::analytic_earth(),
+            COLOR_FORMAT,
+        )
+        .unwrap();
         for name in [
             "aircraft",
             "ground",
@@ -489,9 +502,13 @@ fn transform_forms() {
                 transform: form,
                 ..Default::default()
             };
-            let mut r =
-                TerrainRenderer::new(&ctx.device, settings, AnalyticPlanet::earth(), COLOR_FORMAT)
-                    .unwrap();
+            let mut r = TerrainRenderer::new(
+                &ctx.device,
+                settings,
+                Terrain::analytic_earth(),
+                COLOR_FORMAT,
+            )
+            .unwrap();
             let camera = scene_camera(&r, name);
             let target = OffscreenFrame::new(&ctx.device, w, h);
             let mut frame = target.render(ctx, &mut r, &camera).unwrap();
@@ -504,7 +521,7 @@ fn transform_forms() {
                 times.push(t.elapsed().as_secs_f64() * 1e3);
             }
             times.sort_by(f64::total_cmp);
-            let (mean, p99, max) = rho_stats(&camera, &frame, &r.planet, 3);
+            let (mean, p99, max) = rho_stats(&camera, &frame, r.terrain.analytic().unwrap(), 3);
             eprintln!(
                 "{name:<10} {:<12} {mean:>9.4} {p99:>9.4} {max:>9.4} {:>10.1}",
                 form.name(),

@@ -11,7 +11,7 @@ use globe::clipmap::{ClipmapSettings, TransformForm};
 use globe::render::offscreen::{COLOR_FORMAT, OffscreenFrame};
 use globe::render::{GpuContext, TerrainRenderer};
 use globe::scenes::{SCENES, Scene, scene_names};
-use globe::terrain::AnalyticPlanet;
+use globe::terrain::Terrain;
 
 #[derive(Parser)]
 #[command(
@@ -186,8 +186,12 @@ fn render(args: &RenderArgs) -> anyhow::Result<ExitCode> {
     let started = Instant::now();
     let ctx = GpuContext::headless().context("cannot render without a graphics adapter")?;
     eprintln!("adapter: {}", ctx.adapter_description());
-    let mut renderer =
-        TerrainRenderer::new(&ctx.device, settings, AnalyticPlanet::earth(), COLOR_FORMAT)?;
+    let mut renderer = TerrainRenderer::new(
+        &ctx.device,
+        settings,
+        Terrain::analytic_earth(),
+        COLOR_FORMAT,
+    )?;
     renderer.overlays.levels = args.overlay == Some(Overlay::Levels);
     let camera = scene.camera(|lat, lon| renderer.terrain_height_m(lat, lon));
     let target = OffscreenFrame::new(&ctx.device, args.width, args.height);

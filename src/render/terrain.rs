@@ -14,7 +14,7 @@ use crate::clipmap::{ClipmapSettings, RingMesh, RingVertex};
 use crate::geo::camera::Camera;
 use crate::geo::map_transform::{Stretch, TransformUniformsF32};
 use crate::geo::{projection, sphere, visibility};
-use crate::terrain::AnalyticPlanet;
+use crate::terrain::Terrain;
 
 use super::RenderError;
 use super::fill::{FillJob, FillPass};
@@ -94,7 +94,7 @@ pub const SUN_AZIMUTH_DEG: f64 = 135.0;
 
 pub struct TerrainRenderer {
     pub settings: ClipmapSettings,
-    pub planet: AnalyticPlanet,
+    pub terrain: Terrain,
     pub overlays: Overlays,
     /// Debug: draw every level of the mesh regardless of the visibility bounds (tests use it to
     /// show that the levels the bounds skip contribute nothing to the image).
@@ -119,7 +119,7 @@ impl TerrainRenderer {
     pub fn new(
         device: &wgpu::Device,
         settings: ClipmapSettings,
-        planet: AnalyticPlanet,
+        terrain: Terrain,
         color_format: wgpu::TextureFormat,
     ) -> Result<Self, RenderError> {
         settings.validate()?;
@@ -275,7 +275,7 @@ impl TerrainRenderer {
         let grids = vec![None; settings.levels as usize];
         Ok(Self {
             settings,
-            planet,
+            terrain,
             overlays: Overlays::default(),
             draw_all_levels: false,
             draw_all_sectors: false,
@@ -293,10 +293,9 @@ impl TerrainRenderer {
         })
     }
 
-    /// The terrain height under the camera, from the height source (f64).
+    /// The terrain height at (lat, lon), from the height source (f64).
     pub fn terrain_height_m(&self, lat_deg: f64, lon_deg: f64) -> f64 {
-        let (phi, theta) = sphere::phi_theta_from_lat_lon_deg(lat_deg, lon_deg);
-        self.planet.height_m(sphere::unit_vector(phi, theta))
+        self.terrain.height_at_lat_lon_m(lat_deg, lon_deg)
     }
 
     /// Decides what to draw, records the texture updates into `encoder` and writes this
@@ -309,7 +308,7 @@ impl TerrainRenderer {
         width_px: u32,
         height_px: u32,
     ) -> FrameInfo {
-        let radius_m = self.planet.radius_m;
+        let radius_m = self.terrain.radius_m();
         let frame = camera.view_frame();
         let phi_v = frame.phi_v.rem_euclid(std::f64::consts::TAU);
         let theta_v = frame.theta_v;
@@ -320,7 +319,7 @@ impl TerrainRenderer {
         let fov_y_rad = camera.fov_y_rad();
 
         // Levels: eq. 6 (with the mountain term) and eq. 7–8.
-        let (hmin, hmax) = self.planet.height_range_m();
+        let (hmin, hmax) = self.terrain.height_range_m();
         let theta_max = visibility::theta_tilde_max(radius_m, camera.altitude_m, hmin, hmax);
         let theta_min =
             visibility::theta_tilde_min(radius_m, height_above_terrain_m, fov_y_rad, height_px);
@@ -336,9 +335,9 @@ impl TerrainRenderer {
         let frustum = Frustum::new(camera_from_view, eye_view_m, fov_y_rad, aspect, near_m);
         // Terrain radii within each level's outer ring, from the height source's local bounds.
         let nadir = sphere::unit_vector(frame.phi_v, theta_v);
-        let planet = &self.planet;
+        let terrain = &self.terrain;
         let radius_range_m = |level: u32| {
-            let (lo, hi) = planet.height_bounds_near_m(
+            let (lo, hi) = terrain.height_bounds_near_m(
                 nadir,
                 crate::clipmap::settings::level_outer_theta_rad(level),
             );
@@ -369,7 +368,9 @@ impl TerrainRenderer {
             }
             self.grids[level as usize] = Some(grid);
         }
-        let texels_filled = self.fill.encode(queue, encoder, &self.planet, &jobs);
+        let texels_filled = match &self.terrain {
+            Terrain::Analytic(planet) => self.fill.encode(queue, encoder, planet, &jobs),
+        };
 
         let mut levels = vec![LevelUniforms::default(); MAX_LEVELS as usize];
         for (level, grid) in self.grids.iter().enumerate() {

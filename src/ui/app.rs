@@ -20,7 +20,7 @@ use crate::render::offscreen::{self, OffscreenFrame};
 use crate::render::terrain::DEPTH_FORMAT;
 use crate::render::{FrameInfo, GpuContext, RenderError, TerrainRenderer};
 use crate::scenes::Scene;
-use crate::terrain::AnalyticPlanet;
+use crate::terrain::Terrain;
 
 use super::controls::{self, FlyInput};
 use super::panel::{FrameStats, LiveSettings, MeshDraft, Panel, PanelAction, Readout};
@@ -87,7 +87,7 @@ fn create_event_loop() -> Result<EventLoop<()>, UiError> {
 }
 
 /// Terrain height at (lat, lon) of `planet`, as `TerrainRenderer::terrain_height_m` computes it.
-fn terrain_height_m(planet: &AnalyticPlanet, lat_deg: f64, lon_deg: f64) -> f64 {
+fn terrain_height_m(planet: &Terrain, lat_deg: f64, lon_deg: f64) -> f64 {
     let (phi, theta) = sphere::phi_theta_from_lat_lon_deg(lat_deg, lon_deg);
     planet.height_m(sphere::unit_vector(phi, theta))
 }
@@ -112,7 +112,7 @@ impl Gpu {
         event_loop: &ActiveEventLoop,
         display: &OwnedDisplayHandle,
         settings: crate::clipmap::ClipmapSettings,
-        planet: AnalyticPlanet,
+        planet: Terrain,
         overlay_levels: bool,
     ) -> Result<Self, UiError> {
         let attributes = Window::default_attributes()
@@ -205,7 +205,7 @@ impl Gpu {
         let device = &self.ctx.device;
         let oom = device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
         let validation = device.push_error_scope(wgpu::ErrorFilter::Validation);
-        let built = TerrainRenderer::new(device, settings, self.terrain.planet.clone(), format);
+        let built = TerrainRenderer::new(device, settings, self.terrain.terrain.clone(), format);
         let validation = pollster::block_on(validation.pop());
         let oom = pollster::block_on(oom.pop());
         let mut renderer = built.map_err(|e| e.to_string())?;
@@ -307,7 +307,7 @@ impl Input {
 struct App {
     display: OwnedDisplayHandle,
     options: ViewerOptions,
-    planet: AnalyticPlanet,
+    planet: Terrain,
     camera: Camera,
     gpu: Option<Gpu>,
     error: Option<UiError>,
@@ -327,7 +327,7 @@ impl App {
         display: OwnedDisplayHandle,
         smoke_frames: Option<u64>,
     ) -> Self {
-        let planet = AnalyticPlanet::earth();
+        let planet = Terrain::analytic_earth();
         let mut camera = scene.camera(|lat, lon| terrain_height_m(&planet, lat, lon));
         controls::normalize(&mut camera, |lat, lon| terrain_height_m(&planet, lat, lon));
         let panel = Panel::new(&options.settings);
@@ -355,7 +355,7 @@ impl App {
     }
 
     fn radius_m(&self) -> f64 {
-        self.planet.radius_m
+        self.planet.radius_m()
     }
 
     /// One frame: fly, terrain, panel, present; then carry out the panel's actions.
@@ -369,7 +369,7 @@ impl App {
 
         let planet = &self.planet;
         let terrain = |lat: f64, lon: f64| terrain_height_m(planet, lat, lon);
-        let radius_m = planet.radius_m;
+        let radius_m = planet.radius_m();
         controls::fly(
             &mut self.camera,
             &self.input.fly_input(),
