@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
-# The whole test suite on a fresh machine: installs a software Vulkan driver (Mesa lavapipe)
-# when no Vulkan driver is present, then runs every test. GLOBE_REQUIRE_GPU=1 makes the
-# rendering tests fail rather than skip if no adapter can be opened.
+# The whole test suite on a fresh machine: installs what the tests need when it is missing,
+# then runs every test. GLOBE_REQUIRE_GPU=1 and GLOBE_REQUIRE_DATA=1 make the rendering and
+# real-data tests fail rather than skip when their adapter or data is missing.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -13,19 +13,27 @@ have_vulkan() {
     [ "${loader:-0}" -gt 0 ] && [ -n "$icd" ]
 }
 
-if ! have_vulkan; then
-    echo "scripts/test.sh: no Vulkan driver found; installing Mesa's software driver (lavapipe)" >&2
+# What the tests need that a fresh machine lacks: a Vulkan driver (Mesa's software one,
+# lavapipe), GDAL's command-line tools (an independent EHdr reader to cross-check against) and
+# Debian's ferret-datasets (ETOPO5, the real Earth the embedded model comes from).
+packages=()
+if ! have_vulkan; then packages+=(mesa-vulkan-drivers libvulkan1); fi
+if ! command -v gdallocationinfo >/dev/null; then packages+=(gdal-bin); fi
+if [ ! -f /usr/share/ferret-vis/data/etopo5.cdf ]; then packages+=(ferret-datasets); fi
+if [ ${#packages[@]} -gt 0 ]; then
+    echo "scripts/test.sh: installing ${packages[*]}" >&2
     if ! command -v apt-get >/dev/null; then
-        echo "scripts/test.sh: apt-get not available; install a Vulkan driver (e.g. Mesa lavapipe) and the Vulkan loader" >&2
+        echo "scripts/test.sh: apt-get not available; install ${packages[*]} (or their equivalents)" >&2
         exit 1
     fi
     sudo=""
     if [ "$(id -u)" -ne 0 ]; then sudo="sudo"; fi
     $sudo apt-get update -qq
-    DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq mesa-vulkan-drivers libvulkan1 >/dev/null
+    DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${packages[@]}" >/dev/null
 fi
 
 export GLOBE_REQUIRE_GPU=1
+export GLOBE_REQUIRE_DATA=1
 # Mesa's window-system layer complains when this is unset; the tests never open a window.
 export XDG_RUNTIME_DIR="${XDG_RUNTIME_DIR:-$(mktemp -d)}"
 cargo test --workspace "$@"

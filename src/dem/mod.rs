@@ -5,8 +5,12 @@
 //! of heights in metres, `NaN` where the source has no data. The pyramid builder consumes any
 //! source row by row, so memory stays bounded whatever the raster's size.
 
+pub mod ehdr;
+pub mod netcdf;
 pub mod raster;
 
+pub use ehdr::{EhdrMosaic, EhdrRaster};
+pub use netcdf::{NetcdfFile, NetcdfRaster};
 pub use raster::{GeoGrid, RasterSource};
 
 /// Errors of the elevation-data layer. Every variant names the file and, where one applies,
@@ -27,6 +31,12 @@ pub enum DemError {
     },
     #[error("{path}: {message}")]
     Data {
+        path: std::path::PathBuf,
+        message: String,
+    },
+    /// A file that must exist does not (a `.HDR` without its data file, or the reverse).
+    #[error("{path}: {message}")]
+    Missing {
         path: std::path::PathBuf,
         message: String,
     },

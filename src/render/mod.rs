@@ -9,6 +9,7 @@ pub mod fill;
 pub mod offscreen;
 pub mod shader;
 pub mod terrain;
+pub mod upload;
 
 pub use context::GpuContext;
 pub use offscreen::{OffscreenFrame, RenderedFrame};
