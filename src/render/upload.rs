@@ -22,10 +22,16 @@ pub fn grid_point_phi_theta(grid: &LevelGrid, gx: i64, gy: i64) -> (f64, f64) {
 
 /// Computes `rect` with `height_m(φ, θ)` (row-major, `rect.width` per row), splitting the rows
 /// between the available cores.
-pub fn compute_rect(grid: &LevelGrid, rect: &GridRect, height_m: &(dyn Fn(f64, f64) -> f64 + Sync)) -> Vec<f32> {
+pub fn compute_rect(
+    grid: &LevelGrid,
+    rect: &GridRect,
+    height_m: &(dyn Fn(f64, f64) -> f64 + Sync),
+) -> Vec<f32> {
     let (w, h) = (rect.width as usize, rect.height as usize);
     let mut out = vec![0.0f32; w * h];
-    let threads = std::thread::available_parallelism().map_or(1, |n| n.get()).min(h.max(1));
+    let threads = std::thread::available_parallelism()
+        .map_or(1, |n| n.get())
+        .min(h.max(1));
     let rows_per = h.div_ceil(threads.max(1)).max(1);
     std::thread::scope(|scope| {
         for (chunk_index, chunk) in out.chunks_mut(rows_per * w).enumerate() {
@@ -45,7 +51,13 @@ pub fn compute_rect(grid: &LevelGrid, rect: &GridRect, height_m: &(dyn Fn(f64, f
 
 /// Writes `heights` (row-major over `rect`) into layer `grid.level` of `texture`, texel
 /// (gx mod S, gy mod S): up to four pieces where the rectangle wraps around the texture.
-pub fn upload_rect(queue: &wgpu::Queue, texture: &wgpu::Texture, grid: &LevelGrid, rect: &GridRect, heights: &[f32]) {
+pub fn upload_rect(
+    queue: &wgpu::Queue,
+    texture: &wgpu::Texture,
+    grid: &LevelGrid,
+    rect: &GridRect,
+    heights: &[f32],
+) {
     let s = grid.size as i64;
     let spans = |start: i64, len: u32| -> Vec<(u32, u32, u32)> {
         // (slot, offset into the rectangle, length)
@@ -68,12 +80,24 @@ pub fn upload_rect(queue: &wgpu::Queue, texture: &wgpu::Texture, grid: &LevelGri
                 wgpu::TexelCopyTextureInfo {
                     texture,
                     mip_level: 0,
-                    origin: wgpu::Origin3d { x: sx, y: sy, z: grid.level },
+                    origin: wgpu::Origin3d {
+                        x: sx,
+                        y: sy,
+                        z: grid.level,
+                    },
                     aspect: wgpu::TextureAspect::All,
                 },
                 bytemuck::cast_slice(&piece),
-                wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(wx * 4), rows_per_image: Some(hy) },
-                wgpu::Extent3d { width: wx, height: hy, depth_or_array_layers: 1 },
+                wgpu::TexelCopyBufferLayout {
+                    offset: 0,
+                    bytes_per_row: Some(wx * 4),
+                    rows_per_image: Some(hy),
+                },
+                wgpu::Extent3d {
+                    width: wx,
+                    height: hy,
+                    depth_or_array_layers: 1,
+                },
             );
         }
     }
