@@ -1,35 +1,40 @@
-//! `globe-data`: builds globe's tiled elevation pyramid from GTOPO30-style rasters.
-//!
-//! The importer arrives with the real-data issue; until then this binary says so plainly
-//! rather than pretending to work.
+//! `globe-data`: elevation data tools for globe (see data-tools/README.md).
+
+mod progress;
+mod synth;
 
 use std::process::ExitCode;
 
-const HELP: &str = "globe-data: elevation data tools for globe
+use clap::{Parser, Subcommand};
 
-USAGE:
-    globe-data <COMMAND>
+#[derive(Parser)]
+#[command(name = "globe-data", version, about = "Elevation data tools for globe")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
 
-This build has no commands yet. The importer (EHdr/BIL and GTOPO30 tiles → pyramid file),
-`info`, `verify`, `sample` and `synth` are planned; see data-tools/README.md.
-The viewer currently renders the built-in analytic test planet.";
+#[derive(Subcommand)]
+enum Command {
+    /// Write GTOPO30-style tiles (.DEM + .HDR: big-endian i16, NODATA -9999, GTOPO30's 33-tile
+    /// layout and names) resampled from a real raster (ETOPO5 netCDF, or any EHdr raster or
+    /// folder of tiles), for tests and demos.
+    Synth(synth::SynthArgs),
+}
 
 fn main() -> ExitCode {
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    match args.first().map(String::as_str) {
-        None | Some("-h") | Some("--help") | Some("help") => {
-            println!("{HELP}");
-            ExitCode::SUCCESS
-        }
-        Some("-V") | Some("--version") => {
-            println!("globe-data {}", env!("CARGO_PKG_VERSION"));
-            ExitCode::SUCCESS
-        }
-        Some(other) => {
-            eprintln!(
-                "globe-data: unknown command '{other}': this build has no data commands yet (see --help)"
-            );
-            ExitCode::from(2)
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Synth(args) => synth::run(&args),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("globe-data: error: {e}");
+            for cause in e.chain().skip(1) {
+                eprintln!("  caused by: {cause}");
+            }
+            ExitCode::FAILURE
         }
     }
 }

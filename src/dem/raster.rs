@@ -52,3 +52,141 @@ pub trait RasterSource: Send + Sync {
     /// Where the data comes from, for messages and the pyramid header.
     fn describe(&self) -> String;
 }
+
+/// Bilinear sampling of a [`RasterSource`] with a small cache of decoded rows, for callers that
+/// walk the raster roughly row by row (resampling, tile synthesis). Pixel centres return their
+/// stored value exactly; longitude wraps on full-circle grids and clamps otherwise; latitude
+/// clamps to the first and last rows. NaN (no data) propagates only where it has weight.
+pub struct BilinearSampler<'a> {
+    source: &'a dyn RasterSource,
+    grid: GeoGrid,
+    rows: Vec<(usize, Vec<f32>)>,
+}
+
+impl<'a> BilinearSampler<'a> {
+    /// Rows kept decoded: two for the current pair plus slack for a caller that steps back.
+    const CACHED_ROWS: usize = 4;
+
+    pub fn new(source: &'a dyn RasterSource) -> Self {
+        Self {
+            grid: source.grid(),
+            source,
+            rows: Vec::new(),
+        }
+    }
+
+    fn row(&mut self, row: usize) -> Result<&[f32], crate::dem::DemError> {
+        if let Some(i) = self.rows.iter().position(|(r, _)| *r == row) {
+            return Ok(&self.rows[i].1);
+        }
+        let mut data = if self.rows.len() >= Self::CACHED_ROWS {
+            let (_, old) = self.rows.remove(0);
+            old
+        } else {
+            vec![0.0; self.grid.cols]
+        };
+        self.source.read_row(row, &mut data)?;
+        self.rows.push((row, data));
+        Ok(&self.rows.last().expect("just pushed").1)
+    }
+
+    /// The height at (lat, lon) in metres, NaN where the source has no data.
+    pub fn sample(&mut self, lat_deg: f64, lon_deg: f64) -> Result<f64, crate::dem::DemError> {
+        let g = self.grid;
+        let (r, c) = g.row_col_of(lat_deg, lon_deg);
+        let r = r.clamp(0.0, (g.rows - 1) as f64);
+        let r0 = r.floor() as usize;
+        let r1 = (r0 + 1).min(g.rows - 1);
+        let fr = r - r0 as f64;
+        let (c0, c1, fc) = if g.wraps_in_longitude() {
+            let c = c.rem_euclid(g.cols as f64);
+            let c0 = (c.floor() as usize).min(g.cols - 1);
+            (c0, (c0 + 1) % g.cols, c - c0 as f64)
+        } else {
+            let c = c.clamp(0.0, (g.cols - 1) as f64);
+            let c0 = c.floor() as usize;
+            ((c0), (c0 + 1).min(g.cols - 1), c - c0 as f64)
+        };
+        let lerp = |a: f64, b: f64, t: f64| {
+            if t == 0.0 {
+                a
+            } else if t == 1.0 {
+                b
+            } else {
+                a + (b - a) * t
+            }
+        };
+        let top = {
+            let row = self.row(r0)?;
+            lerp(row[c0] as f64, row[c1] as f64, fc)
+        };
+        if fr == 0.0 {
+            return Ok(top);
+        }
+        let bottom = {
+            let row = self.row(r1)?;
+            lerp(row[c0] as f64, row[c1] as f64, fc)
+        };
+        Ok(lerp(top, bottom, fr))
+    }
+}
+
+/// Opens any raster globe reads: a folder of EHdr tiles (one mosaic), a netCDF-3 file
+/// (`.nc`, `.cdf`; `variable` picks the 2-D variable, default the only one), or an EHdr
+/// raster (its `.HDR` or data file).
+pub fn open_raster(
+    path: &std::path::Path,
+    variable: Option<&str>,
+) -> Result<Box<dyn RasterSource>, crate::dem::DemError> {
+    if path.is_dir() {
+        return Ok(Box::new(crate::dem::EhdrMosaic::open_dir(path)?));
+    }
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
+    match ext.as_deref() {
+        Some("nc") | Some("cdf") => Ok(Box::new(crate::dem::NetcdfRaster::open(path, variable)?)),
+        _ => Ok(Box::new(crate::dem::EhdrRaster::open(path)?)),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    struct Ramp(GeoGrid);
+    impl RasterSource for Ramp {
+        fn grid(&self) -> GeoGrid {
+            self.0
+        }
+        fn read_row(&self, row: usize, out: &mut [f32]) -> Result<(), crate::dem::DemError> {
+            for (c, v) in out.iter_mut().enumerate() {
+                *v = (row * 1000 + c) as f32;
+            }
+            Ok(())
+        }
+        fn describe(&self) -> String {
+            "ramp".into()
+        }
+    }
+
+    #[test]
+    fn bilinear_is_exact_at_centres_and_linear_between_and_wraps() {
+        let grid = GeoGrid {
+            cols: 36,
+            rows: 19,
+            lon0_deg: 0.0,
+            lat0_deg: 90.0,
+            dlon_deg: 10.0,
+            dlat_deg: 10.0,
+        };
+        let src = Ramp(grid);
+        let mut s = BilinearSampler::new(&src);
+        assert_eq!(s.sample(80.0, 20.0).unwrap(), 1002.0);
+        assert_eq!(s.sample(75.0, 25.0).unwrap(), 1502.5);
+        // Between the last column (350°) and the first (0°/360°).
+        assert_eq!(s.sample(90.0, 355.0).unwrap(), 17.5);
+        assert_eq!(s.sample(90.0, -5.0).unwrap(), 17.5);
+    }
+}
