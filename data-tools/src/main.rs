@@ -1,5 +1,6 @@
 //! `globe-data`: elevation data tools for globe (see data-tools/README.md).
 
+mod earth;
 mod progress;
 mod synth;
 
@@ -20,12 +21,15 @@ enum Command {
     /// layout and names) resampled from a real raster (ETOPO5 netCDF, or any EHdr raster or
     /// folder of tiles), for tests and demos.
     Synth(synth::SynthArgs),
+    /// Make the small Earth embedded in globe (10′, bathymetry included) from ETOPO5.
+    Earth(earth::EarthArgs),
 }
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Synth(args) => synth::run(&args),
+        Command::Earth(args) => earth::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

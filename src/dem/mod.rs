@@ -6,6 +6,7 @@
 //! source row by row, so memory stays bounded whatever the raster's size.
 
 pub mod ehdr;
+pub mod embedded;
 pub mod netcdf;
 pub mod raster;
 
