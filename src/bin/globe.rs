@@ -86,6 +86,34 @@ impl MeshArgs {
     }
 }
 
+/// The terrain to draw.
+#[derive(Args, Clone, Debug)]
+struct DemArgs {
+    /// `embedded` (the real Earth inside the binary: ETOPO5 at 10′), `analytic` (the test
+    /// planet), a pyramid file made by `globe-data import`, or a raster to import into the cache
+    /// first (a folder of GTOPO30-style tiles, one .HDR/.DEM, or a netCDF-3 file such as ETOPO5).
+    #[arg(long, value_name = "SOURCE", default_value = "embedded")]
+    dem: String,
+}
+
+impl DemArgs {
+    fn open(&self) -> anyhow::Result<Terrain> {
+        let mut last_pct = -1i64;
+        let terrain = globe::terrain::open_terrain(&self.dem, |fraction| {
+            let pct = (fraction * 100.0).floor() as i64;
+            if pct != last_pct {
+                last_pct = pct;
+                eprint!("\rimporting {} into the cache: {pct:3} %", self.dem);
+            }
+        })
+        .with_context(|| format!("cannot open the terrain '{}'", self.dem))?;
+        if last_pct >= 0 {
+            eprintln!();
+        }
+        Ok(terrain)
+    }
+}
+
 #[derive(Args)]
 struct ViewerArgs {
     /// Bookmark to open the viewer at (see `globe scenes`).
@@ -96,6 +124,8 @@ struct ViewerArgs {
     overlay: Option<Overlay>,
     #[command(flatten)]
     mesh: MeshArgs,
+    #[command(flatten)]
+    dem: DemArgs,
 }
 
 #[derive(Args)]
@@ -117,6 +147,8 @@ struct RenderArgs {
     overlay: Option<Overlay>,
     #[command(flatten)]
     mesh: MeshArgs,
+    #[command(flatten)]
+    dem: DemArgs,
 }
 
 fn main() -> ExitCode {
@@ -186,12 +218,9 @@ fn render(args: &RenderArgs) -> anyhow::Result<ExitCode> {
     let started = Instant::now();
     let ctx = GpuContext::headless().context("cannot render without a graphics adapter")?;
     eprintln!("adapter: {}", ctx.adapter_description());
-    let mut renderer = TerrainRenderer::new(
-        &ctx.device,
-        settings,
-        Terrain::analytic_earth(),
-        COLOR_FORMAT,
-    )?;
+    let terrain = args.dem.open()?;
+    eprintln!("terrain: {}", terrain.describe());
+    let mut renderer = TerrainRenderer::new(&ctx.device, settings, terrain, COLOR_FORMAT)?;
     renderer.overlays.levels = args.overlay == Some(Overlay::Levels);
     let camera = scene.camera(|lat, lon| renderer.terrain_height_m(lat, lon));
     let target = OffscreenFrame::new(&ctx.device, args.width, args.height);
@@ -245,6 +274,7 @@ fn viewer(args: &ViewerArgs) -> anyhow::Result<ExitCode> {
         scene: args.scene.clone(),
         settings: args.mesh.settings()?,
         overlay_levels: args.overlay == Some(Overlay::Levels),
+        terrain: args.dem.open()?,
     };
     match globe::ui::run(options) {
         Ok(()) => Ok(ExitCode::SUCCESS),

@@ -4,6 +4,9 @@
 
 use crate::dem::{DemError, GeoGrid, RasterSource};
 
+/// The PNG compiled into the binary.
+pub const EARTH_PNG: &[u8] = include_bytes!("../../assets/earth-10min.png");
+
 /// Pixel spacing of the embedded Earth, degrees (10′).
 pub const SPACING_DEG: f64 = 10.0 / 60.0;
 /// Offset added to heights so they fit an unsigned 16-bit PNG.
@@ -29,7 +32,7 @@ pub struct EmbeddedEarth {
 impl EmbeddedEarth {
     /// Decodes the PNG compiled into the binary.
     pub fn load() -> Result<Self, DemError> {
-        Self::from_png(include_bytes!("../../assets/earth-10min.png"))
+        Self::from_png(EARTH_PNG)
     }
 
     /// Decodes an Earth PNG (16-bit greyscale of h + 32768, 2160 × 1080).

@@ -8,10 +8,12 @@
 pub mod ehdr;
 pub mod embedded;
 pub mod netcdf;
+pub mod pyramid;
 pub mod raster;
 
 pub use ehdr::{EhdrMosaic, EhdrRaster};
 pub use netcdf::{NetcdfFile, NetcdfRaster};
+pub use pyramid::{Pyramid, PyramidBuilder};
 pub use raster::{GeoGrid, RasterSource};
 
 /// Errors of the elevation-data layer. Every variant names the file and, where one applies,
@@ -43,4 +45,24 @@ pub enum DemError {
     },
     #[error("{0}")]
     Other(String),
+    /// A file shorter than its header says (or than the header itself needs).
+    #[error("{path}: truncated: {actual} bytes, expected {expected}; missing {what}")]
+    Truncated {
+        path: std::path::PathBuf,
+        actual: u64,
+        expected: u64,
+        what: String,
+    },
+    /// A pyramid tile whose payload does not match the CRC in the tile index.
+    #[error(
+        "{path}: level {level} tile ({tx}, {ty}): checksum mismatch (index {expected:#010x}, payload {actual:#010x}): the tile is corrupt"
+    )]
+    TileChecksum {
+        path: std::path::PathBuf,
+        level: usize,
+        tx: usize,
+        ty: usize,
+        expected: u32,
+        actual: u32,
+    },
 }

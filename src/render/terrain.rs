@@ -19,6 +19,7 @@ use crate::terrain::Terrain;
 use super::RenderError;
 use super::fill::{FillJob, FillPass};
 use super::shader::{self, MAX_LEVELS};
+use super::upload;
 
 pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 
@@ -112,7 +113,7 @@ pub struct TerrainRenderer {
     fill: FillPass,
     /// The map-space window each level texture currently holds (None: never filled).
     grids: Vec<Option<LevelGrid>>,
-    _heights: wgpu::Texture,
+    heights: wgpu::Texture,
 }
 
 impl TerrainRenderer {
@@ -291,7 +292,7 @@ impl TerrainRenderer {
             pipeline,
             fill,
             grids,
-            _heights: heights,
+            heights,
         })
     }
 
@@ -372,6 +373,21 @@ impl TerrainRenderer {
         }
         let texels_filled = match &self.terrain {
             Terrain::Analytic(planet) => self.fill.encode(queue, encoder, planet, &jobs),
+            Terrain::Dem(dem) => {
+                // CPU resampling from the memory-mapped pyramid, written toroidally (the
+                // streaming issue moves this onto a GPU tile cache).
+                let mut texels = 0;
+                for job in &jobs {
+                    let level =
+                        dem.level_for_texel(super::fill::band_limit_texel_m(&job.grid, radius_m));
+                    let sample =
+                        |phi: f64, theta: f64| dem.height_band_limited_m(phi, theta, level);
+                    let heights = upload::compute_rect(&job.grid, &job.rect, &sample);
+                    upload::upload_rect(queue, &self.heights, &job.grid, &job.rect, &heights);
+                    texels += job.rect.texels();
+                }
+                texels
+            }
         };
 
         let mut levels = vec![LevelUniforms::default(); MAX_LEVELS as usize];

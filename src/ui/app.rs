@@ -327,7 +327,7 @@ impl App {
         display: OwnedDisplayHandle,
         smoke_frames: Option<u64>,
     ) -> Self {
-        let planet = Terrain::analytic_earth();
+        let planet = options.terrain.clone();
         let mut camera = scene.camera(|lat, lon| terrain_height_m(&planet, lat, lon));
         controls::normalize(&mut camera, |lat, lon| terrain_height_m(&planet, lat, lon));
         let panel = Panel::new(&options.settings);

@@ -31,7 +31,7 @@ use crate::render::RenderError;
 use crate::scenes::{Scene, scene_names};
 
 /// What the viewer starts with.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug)]
 pub struct ViewerOptions {
     /// Name of the scene bookmark ([`crate::scenes::SCENES`]) to start at.
     pub scene: String,
@@ -39,6 +39,8 @@ pub struct ViewerOptions {
     pub settings: ClipmapSettings,
     /// Start with the per-level colour overlay on.
     pub overlay_levels: bool,
+    /// The terrain to show (the embedded Earth, a DEM pyramid, or the analytic test planet).
+    pub terrain: crate::terrain::Terrain,
 }
 
 impl Default for ViewerOptions {
@@ -47,6 +49,7 @@ impl Default for ViewerOptions {
             scene: "aircraft".to_owned(),
             settings: ClipmapSettings::default(),
             overlay_levels: false,
+            terrain: crate::terrain::Terrain::analytic_earth(),
         }
     }
 }

@@ -1,0 +1,662 @@
+//! The reader: a validated memory map of a pyramid file.
+
+use std::borrow::Cow;
+use std::fmt;
+use std::fs::File;
+use std::path::{Path, PathBuf};
+
+use memmap2::Mmap;
+
+use super::format::{Encoding, Extents, Header, LevelGeom, TileEntry};
+use crate::dem::DemError;
+use crate::dem::raster::GeoGrid;
+
+/// Which plane of a tile.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Plane {
+    Avg = 0,
+    Min = 1,
+    Max = 2,
+}
+
+/// A region on the sphere for [`Pyramid::min_max_in`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Region {
+    /// A latitude/longitude box, degrees. The box runs east from `west_deg` to `east_deg`
+    /// (so `west_deg > east_deg` crosses the antimeridian); a span of 360° or more is every
+    /// longitude.
+    Box {
+        south_deg: f64,
+        north_deg: f64,
+        west_deg: f64,
+        east_deg: f64,
+    },
+    /// A spherical cap: all points within `radius_rad` (great-circle angle) of the centre.
+    /// Bounded through its exact latitude/longitude bounding box.
+    Cap {
+        lat_deg: f64,
+        lon_deg: f64,
+        radius_rad: f64,
+    },
+}
+
+/// Height bounds over a region at one level.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct HeightBounds {
+    pub min_m: f64,
+    pub max_m: f64,
+    /// False when part of the region lies outside the data's extents (where the pyramid has
+    /// no data: the bounds then hold for the covered part only).
+    pub complete: bool,
+    /// Pixels inspected.
+    pub pixels: usize,
+}
+
+/// One tile: three planes of `tile_size²` codes, rows north to south. Codes beyond
+/// `valid_cols` / `valid_rows` repeat the level's last column / row.
+#[derive(Clone, Debug)]
+pub struct TileView<'a> {
+    pub level: usize,
+    pub tx: usize,
+    pub ty: usize,
+    pub tile_size: usize,
+    /// Columns and rows of this tile inside the level's grid (edge tiles have fewer).
+    pub valid_cols: usize,
+    pub valid_rows: usize,
+    /// Level pixel of the tile's sample (0, 0).
+    pub first_col: usize,
+    pub first_row: usize,
+    pub encoding: Encoding,
+    /// Zero-copy on little-endian machines (the file is little-endian and 2-aligned).
+    pub avg: Cow<'a, [i16]>,
+    pub min: Cow<'a, [i16]>,
+    pub max: Cow<'a, [i16]>,
+}
+
+impl TileView<'_> {
+    /// Height in metres of plane `p` at tile sample (x, y).
+    pub fn get_m(&self, p: Plane, x: usize, y: usize) -> f64 {
+        let plane = match p {
+            Plane::Avg => &self.avg,
+            Plane::Min => &self.min,
+            Plane::Max => &self.max,
+        };
+        self.encoding.decode(plane[y * self.tile_size + x])
+    }
+}
+
+/// Summary for `globe-data info`.
+#[derive(Clone, Debug)]
+pub struct PyramidInfo {
+    pub path: PathBuf,
+    pub version: u32,
+    pub file_bytes: u64,
+    pub tile_size: usize,
+    pub tile_bytes: u64,
+    pub tiles: usize,
+    pub wraps: bool,
+    pub extents: Extents,
+    pub encoding: Encoding,
+    pub nan_count: u64,
+    pub min_m: f64,
+    pub max_m: f64,
+    pub description: String,
+    pub levels: Vec<LevelGeom>,
+}
+
+impl fmt::Display for PyramidInfo {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let e = &self.extents;
+        writeln!(f, "{}", self.path.display())?;
+        writeln!(f, "  source      {}", self.description)?;
+        writeln!(
+            f,
+            "  format      version {}, {} bytes, {} tiles of {}² samples ({} bytes each)",
+            self.version, self.file_bytes, self.tiles, self.tile_size, self.tile_bytes
+        )?;
+        writeln!(
+            f,
+            "  extents     lat {} … {}°, lon {} … {}°{}",
+            e.south_deg,
+            e.north_deg,
+            e.west_deg,
+            e.east_deg,
+            if self.wraps { " (whole circle)" } else { "" }
+        )?;
+        writeln!(
+            f,
+            "  heights     {} … {} m, stored as i16 × {} m + {} m; {} no-data pixels set to sea level",
+            self.min_m, self.max_m, self.encoding.quantum_m, self.encoding.offset_m, self.nan_count
+        )?;
+        writeln!(
+            f,
+            "  level  pixels          tiles     spacing (°)  spacing at equator (m)"
+        )?;
+        for (i, l) in self.levels.iter().enumerate() {
+            let metres = l.grid.dlat_deg.to_radians() * crate::geo::EARTH_RADIUS_M;
+            writeln!(
+                f,
+                "  {i:>5}  {:>7} × {:<6} {:>4} × {:<4} {:<12.6} {:.0}",
+                l.cols, l.rows, l.tiles_x, l.tiles_y, l.grid.dlat_deg, metres
+            )?;
+        }
+        Ok(())
+    }
+}
+
+/// Result of [`Pyramid::verify`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct VerifyReport {
+    pub tiles: usize,
+    pub bytes: u64,
+}
+
+/// A pyramid file, memory-mapped and validated (magic, version, header CRC, level table,
+/// tile index and file length) by [`Pyramid::open`]. `Send + Sync`: share it in an `Arc`.
+pub struct Pyramid {
+    path: PathBuf,
+    /// Kept open to re-check the length ([`Pyramid::check_length`]).
+    file: File,
+    map: Mmap,
+    header: Header,
+    first_tile: Vec<usize>,
+}
+
+impl fmt::Debug for Pyramid {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("Pyramid")
+            .field("path", &self.path)
+            .field("levels", &self.header.levels.len())
+            .field("tiles", &self.header.index.len())
+            .finish()
+    }
+}
+
+impl Pyramid {
+    /// Opens and validates a pyramid file. Every failure (not a pyramid, another version,
+    /// corrupt header, inconsistent level table, truncated or overlong file) is an error that
+    /// names the file and what is wrong; nothing here can index past the end of the map.
+    /// Tile payloads are checked by [`Pyramid::verify`] (all) or
+    /// [`Pyramid::tile_verified`] (one).
+    pub fn open(path: impl AsRef<Path>) -> Result<Pyramid, DemError> {
+        let path = path.as_ref().to_path_buf();
+        let io = |source| DemError::Io {
+            path: path.clone(),
+            source,
+        };
+        let file = File::open(&path).map_err(io)?;
+        let len = file.metadata().map_err(io)?.len();
+        if len == 0 {
+            return Err(DemError::Truncated {
+                path,
+                actual: 0,
+                expected: super::format::FIXED_HEADER_LEN as u64,
+                what: "everything: the file is empty".into(),
+            });
+        }
+        // SAFETY: the map is read-only and every access below is bounds-checked against the
+        // length validated here. The remaining risk is another process truncating the file in
+        // place while it is mapped (SIGBUS on access); see "SIGBUS" in the module docs.
+        let map = unsafe { Mmap::map(&file) }.map_err(io)?;
+        let header = Header::decode(&map, len, &path)?;
+        let lay = super::format::layout(&header.levels, header.tile_size, header.description.len());
+        Ok(Pyramid {
+            path,
+            file,
+            map,
+            first_tile: lay.first_tile,
+            header,
+        })
+    }
+
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    pub fn level_count(&self) -> usize {
+        self.header.levels.len()
+    }
+
+    pub fn levels(&self) -> &[LevelGeom] {
+        &self.header.levels
+    }
+
+    /// The pixel-centre grid of a level.
+    pub fn grid(&self, level: usize) -> GeoGrid {
+        self.header.levels[level].grid
+    }
+
+    pub fn tile_size(&self) -> usize {
+        self.header.tile_size
+    }
+
+    pub fn extents(&self) -> Extents {
+        self.header.extents
+    }
+
+    pub fn encoding(&self) -> Encoding {
+        self.header.encoding
+    }
+
+    /// True when the columns cover the whole circle of longitude.
+    pub fn wraps(&self) -> bool {
+        self.header.wraps
+    }
+
+    /// Source pixels without data that the builder set to sea level.
+    pub fn nan_count(&self) -> u64 {
+        self.header.nan_count
+    }
+
+    pub fn info(&self) -> PyramidInfo {
+        let h = &self.header;
+        PyramidInfo {
+            path: self.path.clone(),
+            version: super::format::FORMAT_VERSION,
+            file_bytes: h.file_len,
+            tile_size: h.tile_size,
+            tile_bytes: super::format::tile_bytes(h.tile_size),
+            tiles: h.index.len(),
+            wraps: h.wraps,
+            extents: h.extents,
+            encoding: h.encoding,
+            nan_count: h.nan_count,
+            min_m: h.min_m,
+            max_m: h.max_m,
+            description: h.description.clone(),
+            levels: h.levels.clone(),
+        }
+    }
+
+    /// The finest level whose pixel spacing (in latitude) is at least `spacing_deg`; the
+    /// coarsest level if none is that coarse.
+    pub fn level_for_spacing(&self, spacing_deg: f64) -> usize {
+        self.header
+            .levels
+            .iter()
+            .position(|l| l.grid.dlat_deg >= spacing_deg)
+            .unwrap_or(self.header.levels.len() - 1)
+    }
+
+    /// Fails if the file's length is no longer what was validated at open (truncated or
+    /// extended in place by another process). Cheap (one `fstat`); the streamer can call it
+    /// before a batch of reads to narrow the SIGBUS window described in the module docs.
+    pub fn check_length(&self) -> Result<(), DemError> {
+        let len = self
+            .file
+            .metadata()
+            .map_err(|source| DemError::Io {
+                path: self.path.clone(),
+                source,
+            })?
+            .len();
+        let expected = self.header.file_len;
+        if len < expected {
+            return Err(DemError::Truncated {
+                path: self.path.clone(),
+                actual: len,
+                expected,
+                what: format!(
+                    "{} bytes: the file shrank after it was opened (rewritten in place?)",
+                    expected - len
+                ),
+            });
+        }
+        if len > expected {
+            return Err(DemError::Data {
+                path: self.path.clone(),
+                message: format!(
+                    "the file grew from {expected} to {len} bytes after it was opened (rewritten in place?)"
+                ),
+            });
+        }
+        Ok(())
+    }
+
+    fn index_of(&self, level: usize, tx: usize, ty: usize) -> Result<usize, DemError> {
+        let l = self.header.levels.get(level).ok_or_else(|| {
+            DemError::Other(format!(
+                "{}: level {level} does not exist ({} levels)",
+                self.path.display(),
+                self.header.levels.len()
+            ))
+        })?;
+        if tx >= l.tiles_x || ty >= l.tiles_y {
+            return Err(DemError::Other(format!(
+                "{}: level {level} has {} × {} tiles, no tile ({tx}, {ty})",
+                self.path.display(),
+                l.tiles_x,
+                l.tiles_y
+            )));
+        }
+        Ok(self.first_tile[level] + ty * l.tiles_x + tx)
+    }
+
+    /// The index entry (offset, length, CRC) of a tile.
+    pub fn tile_entry(&self, level: usize, tx: usize, ty: usize) -> Result<TileEntry, DemError> {
+        Ok(self.header.index[self.index_of(level, tx, ty)?])
+    }
+
+    /// The raw payload of a tile (three planes of little-endian `i16`), unchecked.
+    pub fn tile_bytes(&self, level: usize, tx: usize, ty: usize) -> Result<&[u8], DemError> {
+        let e = self.tile_entry(level, tx, ty)?;
+        Ok(&self.map[e.offset as usize..e.offset as usize + e.len as usize])
+    }
+
+    /// A view of a tile, without checking its CRC.
+    pub fn tile(&self, level: usize, tx: usize, ty: usize) -> Result<TileView<'_>, DemError> {
+        let bytes = self.tile_bytes(level, tx, ty)?;
+        let t = self.header.tile_size;
+        let l = &self.header.levels[level];
+        let plane = |p: usize| -> Cow<'_, [i16]> {
+            let b = &bytes[p * 2 * t * t..(p + 1) * 2 * t * t];
+            #[cfg(target_endian = "little")]
+            if let Ok(s) = bytemuck::try_cast_slice::<u8, i16>(b) {
+                return Cow::Borrowed(s);
+            }
+            Cow::Owned(
+                b.chunks_exact(2)
+                    .map(|c| i16::from_le_bytes([c[0], c[1]]))
+                    .collect(),
+            )
+        };
+        Ok(TileView {
+            level,
+            tx,
+            ty,
+            tile_size: t,
+            valid_cols: (l.cols - tx * t).min(t),
+            valid_rows: (l.rows - ty * t).min(t),
+            first_col: tx * t,
+            first_row: ty * t,
+            encoding: self.header.encoding,
+            avg: plane(0),
+            min: plane(1),
+            max: plane(2),
+        })
+    }
+
+    /// A view of a tile whose payload matches its CRC (the streamer's read path).
+    pub fn tile_verified(
+        &self,
+        level: usize,
+        tx: usize,
+        ty: usize,
+    ) -> Result<TileView<'_>, DemError> {
+        let e = self.tile_entry(level, tx, ty)?;
+        let crc = crc32fast::hash(self.tile_bytes(level, tx, ty)?);
+        if crc != e.crc32 {
+            return Err(self.checksum_error(level, tx, ty, e.crc32, crc));
+        }
+        self.tile(level, tx, ty)
+    }
+
+    fn checksum_error(
+        &self,
+        level: usize,
+        tx: usize,
+        ty: usize,
+        expected: u32,
+        actual: u32,
+    ) -> DemError {
+        DemError::TileChecksum {
+            path: self.path.clone(),
+            level,
+            tx,
+            ty,
+            expected,
+            actual,
+        }
+    }
+
+    /// Checks the file length again and every tile's CRC, in file order; the first bad tile
+    /// is the error (with its level and tile x/y).
+    pub fn verify(&self) -> Result<VerifyReport, DemError> {
+        self.check_length()?;
+        let mut bytes = 0u64;
+        for (level, l) in self.header.levels.iter().enumerate() {
+            for ty in 0..l.tiles_y {
+                for tx in 0..l.tiles_x {
+                    let e = self.tile_entry(level, tx, ty)?;
+                    let crc = crc32fast::hash(self.tile_bytes(level, tx, ty)?);
+                    if crc != e.crc32 {
+                        return Err(self.checksum_error(level, tx, ty, e.crc32, crc));
+                    }
+                    bytes += e.len as u64;
+                }
+            }
+        }
+        Ok(VerifyReport {
+            tiles: self.header.index.len(),
+            bytes,
+        })
+    }
+
+    /// The stored code of plane `p` at pixel (row, col) of a level (in range: unchecked).
+    fn code(&self, level: usize, p: Plane, row: usize, col: usize) -> i16 {
+        let t = self.header.tile_size;
+        let l = &self.header.levels[level];
+        let i = self.first_tile[level] + (row / t) * l.tiles_x + col / t;
+        let at = self.header.index[i].offset as usize
+            + 2 * (p as usize * t * t + (row % t) * t + col % t);
+        i16::from_le_bytes([self.map[at], self.map[at + 1]])
+    }
+
+    /// Height in metres of plane `p` at pixel (row, col) of a level.
+    pub fn pixel_m(&self, level: usize, p: Plane, row: usize, col: usize) -> Option<f64> {
+        let l = self.header.levels.get(level)?;
+        (row < l.rows && col < l.cols)
+            .then(|| self.header.encoding.decode(self.code(level, p, row, col)))
+    }
+
+    /// True when (lat, lon) lies within the data's extents (always, in longitude, for a
+    /// grid that wraps).
+    pub fn covers(&self, lat_deg: f64, lon_deg: f64) -> bool {
+        self.lon_offset(lon_deg).is_some() && self.lat_ok(lat_deg)
+    }
+
+    fn lat_ok(&self, lat: f64) -> bool {
+        let e = &self.header.extents;
+        let tol = 1e-9;
+        (-90.0..=90.0).contains(&lat) && lat >= e.south_deg - tol && lat <= e.north_deg + tol
+    }
+
+    /// Degrees east of the western edge, in [0, east − west], or None outside.
+    fn lon_offset(&self, lon: f64) -> Option<f64> {
+        if !lon.is_finite() {
+            return None;
+        }
+        let e = &self.header.extents;
+        let d = (lon - e.west_deg).rem_euclid(360.0);
+        if self.header.wraps {
+            return Some(d);
+        }
+        let span = e.east_deg - e.west_deg;
+        let tol = 1e-9;
+        if d <= span + tol {
+            Some(d.min(span))
+        } else if d >= 360.0 - tol {
+            Some(0.0)
+        } else {
+            None
+        }
+    }
+
+    /// Continuous (row, col) of a point at a level, pixel centres at integers, snapped to a
+    /// centre within 1e-7 pixel (so that a centre computed in floating point hits it).
+    fn pixel_coords(&self, level: usize, lat: f64, lon: f64) -> Option<(f64, f64)> {
+        if !self.lat_ok(lat) {
+            return None;
+        }
+        let d = self.lon_offset(lon)?;
+        let g = &self.header.levels[level].grid;
+        let snap = |x: f64| {
+            let r = x.round();
+            if (x - r).abs() < 1e-7 { r } else { x }
+        };
+        let row = snap((g.lat0_deg - lat) / g.dlat_deg);
+        let col = snap(d / g.dlon_deg - 0.5);
+        Some((row, col))
+    }
+
+    /// The avg height at (lat, lon) at a level, bilinear between pixel centres: a pixel centre
+    /// returns its stored value exactly. Longitude wraps for a grid that covers the circle;
+    /// latitude clamps to the first/last row towards the poles (and near a regional grid's
+    /// edges). `None` outside the data's extents or for a level that does not exist.
+    pub fn sample(&self, lat_deg: f64, lon_deg: f64, level: usize) -> Option<f64> {
+        self.sample_plane(lat_deg, lon_deg, level, Plane::Avg)
+    }
+
+    /// As [`Pyramid::sample`], of any plane.
+    pub fn sample_plane(&self, lat_deg: f64, lon_deg: f64, level: usize, p: Plane) -> Option<f64> {
+        let l = *self.header.levels.get(level)?;
+        let (row, col) = self.pixel_coords(level, lat_deg, lon_deg)?;
+        let row = row.clamp(0.0, (l.rows - 1) as f64);
+        let r0 = (row as usize).min(l.rows - 1);
+        let fr = row - r0 as f64;
+        let r1 = (r0 + 1).min(l.rows - 1);
+        let (c0, c1, fc) = if self.header.wraps {
+            let n = l.cols as f64;
+            let mut c = col.rem_euclid(n);
+            if c >= n {
+                c = 0.0;
+            }
+            let c0 = (c as usize).min(l.cols - 1);
+            (c0, (c0 + 1) % l.cols, c - c0 as f64)
+        } else {
+            let c = col.clamp(0.0, (l.cols - 1) as f64);
+            let c0 = (c as usize).min(l.cols - 1);
+            (c0, (c0 + 1).min(l.cols - 1), c - c0 as f64)
+        };
+        let v = |r, c| self.header.encoding.decode(self.code(level, p, r, c));
+        let top = if fc == 0.0 {
+            v(r0, c0)
+        } else {
+            (1.0 - fc) * v(r0, c0) + fc * v(r0, c1)
+        };
+        if fr == 0.0 {
+            return Some(top);
+        }
+        let bottom = if fc == 0.0 {
+            v(r1, c0)
+        } else {
+            (1.0 - fc) * v(r1, c0) + fc * v(r1, c1)
+        };
+        Some((1.0 - fr) * top + fr * bottom)
+    }
+
+    /// Bounds of the terrain over a region at a level, from the min/max planes: they hold for
+    /// the level-0 bilinear surface and for every coarser level's bilinear avg surface at every
+    /// point of the region (the pixels read are all those whose centre is within one pixel of
+    /// the region). `None` when the region misses the data or the level does not exist.
+    pub fn min_max_in(&self, region: Region, level: usize) -> Option<HeightBounds> {
+        let l = *self.header.levels.get(level)?;
+        let (south, north, west, span) = match region {
+            Region::Box {
+                south_deg,
+                north_deg,
+                west_deg,
+                east_deg,
+            } => {
+                if south_deg.is_nan() || north_deg.is_nan() || south_deg > north_deg {
+                    return None;
+                }
+                let span = if east_deg - west_deg >= 360.0 {
+                    360.0
+                } else {
+                    (east_deg - west_deg).rem_euclid(360.0)
+                };
+                (south_deg, north_deg, west_deg, span)
+            }
+            Region::Cap {
+                lat_deg,
+                lon_deg,
+                radius_rad,
+            } => {
+                if radius_rad.is_nan() || radius_rad < 0.0 {
+                    return None;
+                }
+                let r = radius_rad.to_degrees();
+                let (s, n) = (lat_deg - r, lat_deg + r);
+                if n >= 90.0 || s <= -90.0 || radius_rad >= std::f64::consts::FRAC_PI_2 {
+                    (s.max(-90.0), n.min(90.0), lon_deg, 360.0)
+                } else {
+                    let half = (radius_rad.sin() / lat_deg.to_radians().cos())
+                        .clamp(-1.0, 1.0)
+                        .asin()
+                        .to_degrees();
+                    (s, n, lon_deg - half, 2.0 * half)
+                }
+            }
+        };
+        let e = self.header.extents;
+        let g = l.grid;
+        let (south, north) = (south.max(-90.0), north.min(90.0));
+        let (s_c, n_c) = (south.max(e.south_deg), north.min(e.north_deg));
+        if s_c > n_c {
+            return None;
+        }
+        let tol = 1e-9;
+        let mut complete = s_c <= south + tol && n_c >= north - tol;
+        // Rows whose centre is within one pixel of [s_c, n_c].
+        let row_a = (((g.lat0_deg - n_c) / g.dlat_deg).floor().max(0.0) as usize).min(l.rows - 1);
+        let row_b = (((g.lat0_deg - s_c) / g.dlat_deg).ceil().max(0.0) as usize).min(l.rows - 1);
+        // Column ranges (a pixel range in "columns east of the western edge" units).
+        let mut col_ranges: Vec<(isize, isize)> = Vec::new();
+        let to_col = |d: f64| d / g.dlon_deg - 0.5;
+        if self.header.wraps {
+            if span >= 360.0 {
+                col_ranges.push((0, l.cols as isize - 1));
+            } else {
+                let d = (west - e.west_deg).rem_euclid(360.0);
+                let a = to_col(d).floor() as isize;
+                let b = to_col(d + span).ceil() as isize;
+                if b - a + 1 >= l.cols as isize {
+                    col_ranges.push((0, l.cols as isize - 1));
+                } else {
+                    col_ranges.push((a, b));
+                }
+            }
+        } else {
+            let width = e.east_deg - e.west_deg;
+            let d0 = (west - e.west_deg).rem_euclid(360.0) - 360.0;
+            let mut covered = 0.0;
+            for k in 0..3 {
+                let a = d0 + 360.0 * k as f64;
+                let b = a + span;
+                let (ca, cb) = (a.max(0.0), b.min(width));
+                if ca <= cb {
+                    covered += cb - ca;
+                    let lo = to_col(ca).floor().max(0.0) as isize;
+                    let hi = (to_col(cb).ceil() as isize).min(l.cols as isize - 1);
+                    col_ranges.push((lo, hi));
+                }
+            }
+            if col_ranges.is_empty() {
+                return None;
+            }
+            if covered < span - 1e-9 {
+                complete = false;
+            }
+        }
+        let (mut lo, mut hi) = (i16::MAX, i16::MIN);
+        let mut pixels = 0;
+        let n = l.cols as isize;
+        for row in row_a..=row_b {
+            for &(a, b) in &col_ranges {
+                for c in a..=b {
+                    let col = c.rem_euclid(n) as usize;
+                    lo = lo.min(self.code(level, Plane::Min, row, col));
+                    hi = hi.max(self.code(level, Plane::Max, row, col));
+                    pixels += 1;
+                }
+            }
+        }
+        Some(HeightBounds {
+            min_m: self.header.encoding.decode(lo),
+            max_m: self.header.encoding.decode(hi),
+            complete,
+            pixels,
+        })
+    }
+}

@@ -1,0 +1,267 @@
+//! Real elevation data as the terrain: a tiled pyramid file (`dem::pyramid`), memory-mapped.
+//!
+//! The terrain function is the finest level interpolated bilinearly between pixel centres
+//! (outside a regional file's extents: sea level). A clipmap level texture of ground spacing Δ
+//! samples the finest pyramid level at least Δ apart, so a texture never holds more detail than
+//! it can carry (spherical-clipmaps.md §4.2–4.3; the pyramid's coarser levels are area-weighted
+//! and widened towards the poles). The choice depends on the clipmap level alone, not on the
+//! viewer, so nothing pops as the viewer moves. Culling bounds come from the min/max planes.
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use glam::DVec3;
+
+use crate::dem::pyramid::{NanPolicy, Plane, Pyramid, PyramidBuilder, Region};
+use crate::dem::{DemError, RasterSource};
+use crate::geo::sphere;
+
+/// A pyramid file as the renderer's height source.
+#[derive(Clone)]
+pub struct DemTerrain {
+    pyramid: Arc<Pyramid>,
+    radius_m: f64,
+    range_m: (f64, f64),
+    description: String,
+    /// Per level, the value at each pole when the grid reaches it (see [`PoleCap`]).
+    poles: Arc<Vec<[Option<PoleCap>; 2]>>,
+}
+
+/// An equirectangular grid has no sample at a pole: its outermost row of pixel centres lies
+/// half a pixel short of it, and a sample clamped to that row would depend on the longitude it
+/// came from (at 10′, ±70 m a metre from the North Pole: a star of radial ridges). Between that
+/// row and the pole the terrain blends linearly to the row's mean, so it has one height at
+/// the pole and is continuous across it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PoleCap {
+    /// Latitude of the outermost row of pixel centres.
+    pub row_lat_deg: f64,
+    /// The pole's height: the mean of that row.
+    pub height_m: f64,
+}
+
+impl std::fmt::Debug for DemTerrain {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("DemTerrain")
+            .field("file", &self.pyramid.path())
+            .field("range_m", &self.range_m)
+            .finish()
+    }
+}
+
+impl DemTerrain {
+    /// Opens a pyramid file on a sphere of radius `radius_m`.
+    pub fn open(path: &Path, radius_m: f64) -> Result<Self, DemError> {
+        let pyramid = Pyramid::open(path)?;
+        let info = pyramid.info();
+        // Heights outside a regional file's extents are sea level, so 0 is in the range.
+        let range_m = (info.min_m.min(0.0), info.max_m.max(0.0));
+        let description = format!("{} ({})", info.description, path.display());
+        let poles = (0..pyramid.level_count())
+            .map(|level| pole_caps(&pyramid, level))
+            .collect();
+        Ok(Self {
+            pyramid: Arc::new(pyramid),
+            radius_m,
+            range_m,
+            description,
+            poles: Arc::new(poles),
+        })
+    }
+
+    /// The avg plane of `level` at (lat, lon), bilinear, blended to the pole's value beyond the
+    /// outermost row (see [`PoleCap`]); sea level outside the data.
+    pub fn sample_m(&self, lat_deg: f64, lon_deg: f64, level: usize) -> f64 {
+        let [north, south] = self.poles.get(level).copied().unwrap_or([None, None]);
+        let towards = |cap: PoleCap, pole_lat: f64| {
+            let t = ((lat_deg - cap.row_lat_deg) / (pole_lat - cap.row_lat_deg)).clamp(0.0, 1.0);
+            let row = self
+                .pyramid
+                .sample(cap.row_lat_deg, lon_deg, level)
+                .unwrap_or(0.0);
+            row + (cap.height_m - row) * t
+        };
+        match (north, south) {
+            (Some(cap), _) if lat_deg > cap.row_lat_deg => towards(cap, 90.0),
+            (_, Some(cap)) if lat_deg < cap.row_lat_deg => towards(cap, -90.0),
+            _ => self.pyramid.sample(lat_deg, lon_deg, level).unwrap_or(0.0),
+        }
+    }
+
+    pub fn radius_m(&self) -> f64 {
+        self.radius_m
+    }
+
+    pub fn pyramid(&self) -> &Pyramid {
+        &self.pyramid
+    }
+
+    pub fn describe(&self) -> &str {
+        &self.description
+    }
+
+    pub fn height_range_m(&self) -> (f64, f64) {
+        self.range_m
+    }
+
+    /// The terrain function at a point: finest level, bilinear.
+    pub fn height_at_m(&self, lat_deg: f64, lon_deg: f64) -> f64 {
+        self.sample_m(lat_deg, lon_deg, 0)
+    }
+
+    pub fn height_m(&self, u: DVec3) -> f64 {
+        let (phi, theta, _) = sphere::phi_theta_height_from_ecef_m(u, 1.0);
+        let (lat, lon) = sphere::lat_lon_deg_from_phi_theta(phi, theta);
+        self.height_at_m(lat, lon)
+    }
+
+    /// The pyramid level a texture of ground spacing `texel_m` samples.
+    pub fn level_for_texel(&self, texel_m: f64) -> usize {
+        self.pyramid
+            .level_for_spacing((texel_m / self.radius_m).to_degrees())
+    }
+
+    /// Height at (φ, θ) as a texture of ground spacing `texel_m` holds it.
+    pub fn height_band_limited_m(&self, phi_rad: f64, theta_rad: f64, level: usize) -> f64 {
+        let (lat, lon) = sphere::lat_lon_deg_from_phi_theta(phi_rad, theta_rad);
+        self.sample_m(lat, lon, level)
+    }
+
+    /// Bounds of the terrain within an arc of `angle_rad` around `u`, from the min/max planes
+    /// of a level a few pixels across the cap (conservative: each coarse min/max bounds every
+    /// finer sample under it). Outside the data, sea level.
+    pub fn height_bounds_near_m(&self, u: DVec3, angle_rad: f64) -> (f64, f64) {
+        let (phi, theta, _) = sphere::phi_theta_height_from_ecef_m(u, 1.0);
+        let (lat, lon) = sphere::lat_lon_deg_from_phi_theta(phi, theta);
+        let level = self.pyramid.level_for_spacing(angle_rad.to_degrees() / 4.0);
+        match self.pyramid.min_max_in(
+            Region::Cap {
+                lat_deg: lat,
+                lon_deg: lon,
+                radius_rad: angle_rad,
+            },
+            level,
+        ) {
+            Some(b) if b.complete => (b.min_m, b.max_m),
+            Some(b) => (b.min_m.min(0.0), b.max_m.max(0.0)),
+            None => (0.0, 0.0),
+        }
+    }
+}
+
+/// The pole caps of a level whose grid covers the circle and reaches within one pixel of a pole.
+fn pole_caps(pyramid: &Pyramid, level: usize) -> [Option<PoleCap>; 2] {
+    let g = pyramid.grid(level);
+    if !pyramid.wraps() || g.rows == 0 {
+        return [None, None];
+    }
+    let cap = |row: usize, pole_lat: f64| {
+        let row_lat_deg = g.lat_of_row(row as f64);
+        if (pole_lat - row_lat_deg).abs() > g.dlat_deg || row_lat_deg.abs() >= 90.0 {
+            return None;
+        }
+        let sum: f64 = (0..g.cols)
+            .filter_map(|c| pyramid.pixel_m(level, Plane::Avg, row, c))
+            .sum();
+        Some(PoleCap {
+            row_lat_deg,
+            height_m: sum / g.cols as f64,
+        })
+    };
+    [cap(0, 90.0), cap(g.rows - 1, -90.0)]
+}
+
+/// Where imported pyramids are cached: `$XDG_CACHE_HOME/globe` or `~/.cache/globe`, else the
+/// system temporary folder.
+pub fn cache_dir() -> PathBuf {
+    if let Some(d) = std::env::var_os("XDG_CACHE_HOME").filter(|d| !d.is_empty()) {
+        return PathBuf::from(d).join("globe");
+    }
+    if let Some(h) = std::env::var_os("HOME").filter(|h| !h.is_empty()) {
+        return PathBuf::from(h).join(".cache").join("globe");
+    }
+    std::env::temp_dir().join("globe-cache")
+}
+
+/// Builds the pyramid of `source` at `path` unless a valid one is already there. `progress`
+/// gets the fraction done. Safe when several threads or processes import the same source at
+/// once: each builds under its own temporary name and renames it into place (atomic; identical
+/// results), and within a process one import at a time runs.
+pub fn import_cached(
+    source: &dyn RasterSource,
+    path: &Path,
+    mut progress: impl FnMut(f64),
+) -> Result<(), DemError> {
+    static IMPORT: std::sync::Mutex<()> = std::sync::Mutex::new(());
+    let _one_at_a_time = IMPORT.lock().unwrap_or_else(|p| p.into_inner());
+    if Pyramid::open(path).is_ok() {
+        return Ok(());
+    }
+    if let Some(dir) = path.parent() {
+        std::fs::create_dir_all(dir).map_err(|source| DemError::Io {
+            path: dir.to_path_buf(),
+            source,
+        })?;
+    }
+    let mut unique = path.as_os_str().to_owned();
+    unique.push(format!(".{}.tmp", std::process::id()));
+    let unique = PathBuf::from(unique);
+    PyramidBuilder::new()
+        .nan_policy(NanPolicy::SeaLevel)
+        .on_progress(|p| progress(p.fraction))
+        .build(source, &unique)?;
+    std::fs::rename(&unique, path).map_err(|source| DemError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    Ok(())
+}
+
+/// The embedded Earth's pyramid, built into the cache on first use (well under a second).
+pub fn embedded_earth(radius_m: f64) -> Result<DemTerrain, DemError> {
+    let bytes = crate::dem::embedded::EARTH_PNG;
+    let path = cache_dir().join(format!(
+        "embedded-earth-{:08x}.globepyr",
+        crc32fast::hash(bytes)
+    ));
+    let earth = crate::dem::embedded::EmbeddedEarth::from_png(bytes)?;
+    import_cached(&earth, &path, |_| {})?;
+    DemTerrain::open(&path, radius_m)
+}
+
+/// A cache file name for `source_path`: its canonical path and, for every file it names (the
+/// tiles of a folder), size and modification time, hashed, so a changed input is re-imported.
+pub fn cache_path_for(source_path: &Path) -> Result<PathBuf, DemError> {
+    let io = |source| DemError::Io {
+        path: source_path.to_path_buf(),
+        source,
+    };
+    let canonical = source_path.canonicalize().map_err(io)?;
+    let mut key = canonical.to_string_lossy().into_owned();
+    let mut files: Vec<PathBuf> = if canonical.is_dir() {
+        std::fs::read_dir(&canonical)
+            .map_err(io)?
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .collect()
+    } else {
+        vec![canonical.clone()]
+    };
+    files.sort();
+    for f in files {
+        if let Ok(m) = std::fs::metadata(&f) {
+            let mtime = m
+                .modified()
+                .ok()
+                .and_then(|t| t.duration_since(std::time::UNIX_EPOCH).ok());
+            key.push_str(&format!("|{}|{}|{:?}", f.display(), m.len(), mtime));
+        }
+    }
+    let stem = canonical
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "dem".into());
+    Ok(cache_dir().join(format!(
+        "{stem}-{:08x}.globepyr",
+        crc32fast::hash(key.as_bytes())
+    )))
+}
