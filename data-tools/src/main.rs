@@ -2,6 +2,7 @@
 
 mod earth;
 mod progress;
+mod pyramid_cmd;
 mod synth;
 
 use std::process::ExitCode;
@@ -23,6 +24,15 @@ enum Command {
     Synth(synth::SynthArgs),
     /// Make the small Earth embedded in globe (10′, bathymetry included) from ETOPO5.
     Earth(earth::EarthArgs),
+    /// Build a pyramid file (tiled avg/min/max levels down to one tile, checksummed) from a
+    /// raster, a folder of tiles or a netCDF-3 file, in bounded memory, with progress.
+    Import(pyramid_cmd::ImportArgs),
+    /// Describe a pyramid file: source, extents, levels, tiles, height range.
+    Info(pyramid_cmd::FileArg),
+    /// Check every tile of a pyramid file against its checksum.
+    Verify(pyramid_cmd::FileArg),
+    /// Print the height in metres at LAT LON (bilinear; a pixel centre gives its stored value).
+    Sample(pyramid_cmd::SampleArgs),
 }
 
 fn main() -> ExitCode {
@@ -30,6 +40,10 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Synth(args) => synth::run(&args),
         Command::Earth(args) => earth::run(&args),
+        Command::Import(args) => pyramid_cmd::import(&args),
+        Command::Info(args) => pyramid_cmd::info(&args),
+        Command::Verify(args) => pyramid_cmd::verify(&args),
+        Command::Sample(args) => pyramid_cmd::sample(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
