@@ -2,11 +2,11 @@
 
 mod common;
 
+use common::{render, surface_point_view};
+
 use glam::DVec3;
 use globe::clipmap::ClipmapSettings;
-use globe::geo::camera::Camera;
-use globe::geo::projection;
-use globe::render::offscreen::{COLOR_FORMAT, OffscreenFrame, RenderedFrame};
+use globe::render::offscreen::COLOR_FORMAT;
 use globe::render::{GpuContext, TerrainRenderer};
 use globe::scenes::{SCENES, Scene};
 use globe::terrain::Terrain;
@@ -20,18 +20,6 @@ fn earth_renderer(ctx: &GpuContext) -> TerrainRenderer {
         COLOR_FORMAT,
     )
     .unwrap()
-}
-
-fn render(
-    ctx: &GpuContext,
-    r: &mut TerrainRenderer,
-    camera: &Camera,
-    w: u32,
-    h: u32,
-) -> RenderedFrame {
-    OffscreenFrame::new(&ctx.device, w, h)
-        .render(ctx, r, camera)
-        .unwrap()
 }
 
 /// The terrain function has one height at each pole, whatever the longitude it is approached
@@ -135,26 +123,14 @@ fn ground_heights_follow_the_dem() {
     let frame = render(ctx, &mut r, &camera, w, h);
     let view = camera.view_frame();
     let radius = r.terrain.radius_m();
-    let aspect = w as f64 / h as f64;
-    let camera_from_clip =
-        projection::camera_from_clip(camera.fov_y_rad(), aspect, frame.info.near_m);
     let eye = DVec3::new(0.0, 0.0, radius + camera.altitude_m);
     let px_per_rad = h as f64 / camera.fov_y_rad();
     let (mut n, mut max_rho, mut max_err) = (0, 0.0f64, 0.0f64);
     for y in (0..h).step_by(5) {
         for x in (0..w).step_by(5) {
-            let depth = frame.depth_at(x, y) as f64;
-            if depth <= 0.0 {
+            let Some(p) = surface_point_view(&camera, &frame, x, y, radius) else {
                 continue;
-            }
-            let ndc = DVec3::new(
-                (x as f64 + 0.5) / w as f64 * 2.0 - 1.0,
-                1.0 - (y as f64 + 0.5) / h as f64 * 2.0,
-                depth,
-            );
-            let p = eye
-                + camera.view_from_camera()
-                    * projection::camera_point_from_ndc(&camera_from_clip, ndc);
+            };
             let distance = (p - eye).length();
             if distance > 20_000.0 {
                 continue; // beyond the levels finer than the data

@@ -3,12 +3,13 @@
 
 mod common;
 
+use common::{render, surface_point_view};
+
 use glam::DVec3;
 use globe::clipmap::selection::LevelStatus;
 use globe::clipmap::settings::level_outer_theta_rad;
 use globe::clipmap::{ClipmapSettings, TransformForm};
 use globe::geo::camera::Camera;
-use globe::geo::projection;
 use globe::render::offscreen::{COLOR_FORMAT, OffscreenFrame, RenderedFrame};
 use globe::render::{GpuContext, TerrainRenderer};
 use globe::scenes::Scene;
@@ -25,46 +26,10 @@ fn renderer(ctx: &GpuContext) -> TerrainRenderer {
     .unwrap()
 }
 
-fn render(
-    ctx: &GpuContext,
-    r: &mut TerrainRenderer,
-    camera: &Camera,
-    w: u32,
-    h: u32,
-) -> RenderedFrame {
-    OffscreenFrame::new(&ctx.device, w, h)
-        .render(ctx, r, camera)
-        .unwrap()
-}
-
 fn scene_camera(r: &TerrainRenderer, name: &str) -> Camera {
     Scene::by_name(name)
         .unwrap()
         .camera(|lat, lon| r.terrain_height_m(lat, lon))
-}
-
-/// The surface point under pixel (x, y), in view space, from the rendered depth (f64).
-fn surface_point_view(
-    camera: &Camera,
-    frame: &RenderedFrame,
-    x: u32,
-    y: u32,
-    radius_m: f64,
-) -> Option<DVec3> {
-    let depth = frame.depth_at(x, y) as f64;
-    if depth <= 0.0 {
-        return None;
-    }
-    let aspect = frame.width as f64 / frame.height as f64;
-    let ndc = DVec3::new(
-        (x as f64 + 0.5) / frame.width as f64 * 2.0 - 1.0,
-        1.0 - (y as f64 + 0.5) / frame.height as f64 * 2.0,
-        depth,
-    );
-    let camera_from_clip =
-        projection::camera_from_clip(camera.fov_y_rad(), aspect, frame.info.near_m);
-    let p_cam = projection::camera_point_from_ndc(&camera_from_clip, ndc);
-    Some(DVec3::new(0.0, 0.0, radius_m + camera.altitude_m) + camera.view_from_camera() * p_cam)
 }
 
 /// ρ (the error-bounded paper's screen-space error, eq. 3: λ·δ/distance in pixels) of every

@@ -29,3 +29,47 @@ pub fn gpu() -> Option<(&'static GpuContext, MutexGuard<'static, ()>)> {
     let guard = SERIAL.lock().unwrap_or_else(|p| p.into_inner());
     ctx.as_ref().map(|c| (c, guard))
 }
+
+use glam::DVec3;
+use globe::geo::camera::Camera;
+use globe::geo::projection;
+use globe::render::TerrainRenderer;
+use globe::render::offscreen::{OffscreenFrame, RenderedFrame};
+
+/// Renders `camera` into a fresh `w`×`h` offscreen target and reads it back.
+pub fn render(
+    ctx: &GpuContext,
+    r: &mut TerrainRenderer,
+    camera: &Camera,
+    w: u32,
+    h: u32,
+) -> RenderedFrame {
+    OffscreenFrame::new(&ctx.device, w, h)
+        .render(ctx, r, camera)
+        .unwrap()
+}
+
+/// The surface point under pixel (x, y), in view space (planet centre at the origin), from the
+/// rendered reversed-Z depth, in f64. None where the pixel shows sky.
+pub fn surface_point_view(
+    camera: &Camera,
+    frame: &RenderedFrame,
+    x: u32,
+    y: u32,
+    radius_m: f64,
+) -> Option<DVec3> {
+    let depth = frame.depth_at(x, y) as f64;
+    if depth <= 0.0 {
+        return None;
+    }
+    let aspect = frame.width as f64 / frame.height as f64;
+    let ndc = DVec3::new(
+        (x as f64 + 0.5) / frame.width as f64 * 2.0 - 1.0,
+        1.0 - (y as f64 + 0.5) / frame.height as f64 * 2.0,
+        depth,
+    );
+    let camera_from_clip =
+        projection::camera_from_clip(camera.fov_y_rad(), aspect, frame.info.near_m);
+    let p_cam = projection::camera_point_from_ndc(&camera_from_clip, ndc);
+    Some(DVec3::new(0.0, 0.0, radius_m + camera.altitude_m) + camera.view_from_camera() * p_cam)
+}
