@@ -17,9 +17,14 @@ use globe::terrain::analytic::band_weight;
 use globe::terrain::{AnalyticPlanet, Terrain};
 
 fn renderer(ctx: &GpuContext) -> TerrainRenderer {
+    renderer_with(ctx, ClipmapSettings::default())
+}
+
+/// A renderer of the analytic test planet with `settings`.
+fn renderer_with(ctx: &GpuContext, settings: ClipmapSettings) -> TerrainRenderer {
     TerrainRenderer::new(
         &ctx.device,
-        ClipmapSettings::default(),
+        settings,
         Terrain::analytic_earth(),
         COLOR_FORMAT,
     )
@@ -331,13 +336,7 @@ fn settings_sweep() {
             texture_size: tex,
             ..Default::default()
         };
-        let mut r = TerrainRenderer::new(
-            &ctx.device,
-            settings,
-            Terrain::analytic_earth(),
-            COLOR_FORMAT,
-        )
-        .unwrap();
+        let mut r = renderer_with(ctx, settings);
         for name in ["aircraft", "ground"] {
             let camera = scene_camera(&r, name);
             let frame = render(ctx, &mut r, &camera, w, h);
@@ -421,13 +420,7 @@ fn every_transform_form_renders_without_cracks() {
             transform: form,
             ..Default::default()
         };
-        let mut r = TerrainRenderer::new(
-            &ctx.device,
-            settings,
-            Terrain::analytic_earth(),
-            COLOR_FORMAT,
-        )
-        .unwrap();
+        let mut r = renderer_with(ctx, settings);
         for name in [
             "aircraft",
             "ground",
@@ -467,13 +460,7 @@ fn transform_forms() {
                 transform: form,
                 ..Default::default()
             };
-            let mut r = TerrainRenderer::new(
-                &ctx.device,
-                settings,
-                Terrain::analytic_earth(),
-                COLOR_FORMAT,
-            )
-            .unwrap();
+            let mut r = renderer_with(ctx, settings);
             let camera = scene_camera(&r, name);
             let target = OffscreenFrame::new(&ctx.device, w, h);
             let mut frame = target.render(ctx, &mut r, &camera).unwrap();
