@@ -6,7 +6,8 @@
 //! | --- | --- |
 //! | [`geo`] | f64 sphere math, camera, the map transform (3 forms) and visibility bounds |
 //! | [`dem`] | elevation rasters (EHdr/BIL, netCDF-3) and the tiled pyramid file |
-//! | [`terrain`] | height sources: the analytic test planet (later: the DEM pyramid) |
+//! | [`terrain`] | height sources: the analytic test planet and the DEM pyramid |
+//! | [`stream`] | tile streaming: sources (mmap, fault injection), tokio streamer, LRU cache |
 //! | [`clipmap`] | ring mesh, level texture windows, level and sector selection |
 //! | [`render`] | wgpu plumbing: context, terrain pass, compute fill, offscreen target |
 //! | [`scenes`] | the named views of DESIGN.md |
@@ -17,5 +18,6 @@ pub mod dem;
 pub mod geo;
 pub mod render;
 pub mod scenes;
+pub mod stream;
 pub mod terrain;
 pub mod ui;

@@ -226,6 +226,7 @@ fn skipped_levels_are_really_invisible() {
                 }
                 LevelStatus::BeyondHorizon => assert!(outer / 2.0 >= sel.theta_max_rad),
                 LevelStatus::SubPixel => assert!(outer < sel.theta_min_rad),
+                LevelStatus::Waiting => panic!("the analytic planet never waits for data"),
             }
         }
         r.draw_all_levels = true;

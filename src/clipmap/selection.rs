@@ -22,6 +22,9 @@ pub enum LevelStatus {
     /// The whole level lies inside θ̃min (eq. 8): it would cover less than one pixel below the
     /// viewer, so the cap of the next coarser level stands in for it.
     SubPixel,
+    /// Wanted, but its data has not arrived yet (streaming): the next coarser level's cap
+    /// covers it meanwhile.
+    Waiting,
 }
 
 impl LevelStatus {
@@ -30,6 +33,7 @@ impl LevelStatus {
             Self::Drawn => "drawn",
             Self::BeyondHorizon => "beyond horizon (θ̃ > θ̃max)",
             Self::SubPixel => "sub-pixel (θ̃ < θ̃min)",
+            Self::Waiting => "waiting for data",
         }
     }
 }
@@ -88,6 +92,32 @@ impl LevelSelection {
 
     pub fn drawn_levels(&self) -> Range<u32> {
         self.coarsest..self.finest + 1
+    }
+
+    /// Draws no level finer than `ready_finest` (the finest level whose data, and that of
+    /// every coarser drawn level, has arrived); the wanted levels beyond it are `Waiting`.
+    /// `None`: nothing has arrived, every wanted level waits and nothing is drawn.
+    pub fn limit_to_ready(&mut self, ready_finest: Option<u32>) {
+        let first_waiting = match ready_finest {
+            Some(f) if f >= self.coarsest => f.min(self.finest) + 1,
+            _ => self.coarsest,
+        };
+        for level in first_waiting..=self.finest {
+            self.status[level as usize] = LevelStatus::Waiting;
+        }
+        self.finest = first_waiting.saturating_sub(1).max(self.coarsest);
+    }
+
+    /// True when at least one level is drawn (false only while streaming has nothing yet).
+    pub fn any_drawn(&self) -> bool {
+        self.status.contains(&LevelStatus::Drawn)
+    }
+
+    /// Levels wanted but waiting for data.
+    pub fn waiting(&self) -> Vec<u32> {
+        (0..self.status.len() as u32)
+            .filter(|&l| self.status[l as usize] == LevelStatus::Waiting)
+            .collect()
     }
 }
 

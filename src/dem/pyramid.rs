@@ -180,4 +180,6 @@ pub use build::{BuildProgress, BuildReport, DEFAULT_TILE_SIZE, NanPolicy, Pyrami
 pub use format::{
     Encoding, Extents, FORMAT_VERSION, LevelGeom, MAGIC, MAX_TILE_SIZE, MIN_TILE_SIZE, TileEntry,
 };
-pub use read::{HeightBounds, Plane, Pyramid, PyramidInfo, Region, TileView, VerifyReport};
+pub use read::{
+    CodeFn, HeightBounds, NotResident, Plane, Pyramid, PyramidInfo, Region, TileView, VerifyReport,
+};

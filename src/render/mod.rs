@@ -5,10 +5,12 @@
 //! sees are relative to the viewer (view-space offsets, heights, small map-space offsets).
 
 pub mod context;
+pub mod dem_feed;
 pub mod fill;
 pub mod offscreen;
 pub mod shader;
 pub mod terrain;
+pub mod tiles;
 pub mod upload;
 
 pub use context::GpuContext;
@@ -33,4 +35,6 @@ pub enum RenderError {
     Readback(String),
     #[error("the GPU reported an error: {0}")]
     Gpu(String),
+    #[error("{0}")]
+    Stream(String),
 }

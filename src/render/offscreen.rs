@@ -70,8 +70,36 @@ impl OffscreenFrame {
         }
     }
 
-    /// Renders `camera` and reads colour and depth back.
+    /// Waits until every tile the view needs has streamed in (at most `SETTLE_TIMEOUT`), then
+    /// renders `camera` and reads colour and depth back.
     pub fn render(
+        &self,
+        ctx: &GpuContext,
+        renderer: &mut TerrainRenderer,
+        camera: &Camera,
+    ) -> Result<RenderedFrame, RenderError> {
+        if !renderer.settle(ctx, camera, self.width, self.height, SETTLE_TIMEOUT) {
+            let why = renderer
+                .feed()
+                .map(|f| {
+                    format!(
+                        "{} tiles still missing, {} in flight; last error: {}",
+                        f.last.tiles_missing,
+                        f.last.stream.in_flight,
+                        f.last.last_error.as_deref().unwrap_or("none")
+                    )
+                })
+                .unwrap_or_default();
+            return Err(RenderError::Stream(format!(
+                "streaming did not settle within {} s: {why}",
+                SETTLE_TIMEOUT.as_secs()
+            )));
+        }
+        self.render_now(ctx, renderer, camera)
+    }
+
+    /// Renders `camera` with whatever data has arrived (no waiting) and reads it back.
+    pub fn render_now(
         &self,
         ctx: &GpuContext,
         renderer: &mut TerrainRenderer,
@@ -108,6 +136,9 @@ impl OffscreenFrame {
         })
     }
 }
+
+/// How long `render` waits for streaming to settle.
+pub const SETTLE_TIMEOUT: std::time::Duration = std::time::Duration::from_secs(300);
 
 /// A mappable buffer holding one texture copy, rows padded to wgpu's 256-byte alignment.
 struct ReadbackBuffer {

@@ -10,6 +10,7 @@ pub const MAX_LEVELS: u32 = 48;
 const MAP_TRANSFORM: &str = include_str!("../../shaders/common/map_transform.wgsl");
 pub const TERRAIN: &str = include_str!("../../shaders/terrain.wgsl");
 pub const FILL_ANALYTIC: &str = include_str!("../../shaders/fill_analytic.wgsl");
+pub const FILL_DEM: &str = include_str!("../../shaders/fill_dem.wgsl");
 
 /// Generated constants every pass may use.
 pub fn constants() -> String {

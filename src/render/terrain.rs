@@ -17,9 +17,10 @@ use crate::geo::{projection, sphere, visibility};
 use crate::terrain::Terrain;
 
 use super::RenderError;
+use super::dem_feed::{DemFeed, FeedFrame, LevelJob};
 use super::fill::{FillJob, FillPass};
 use super::shader::{self, MAX_LEVELS};
-use super::upload;
+use crate::stream::StreamSettings;
 
 pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 
@@ -86,6 +87,16 @@ pub struct FrameInfo {
     pub height_above_terrain_m: f64,
     /// Linear RGB background: sky blue near the ground, black in space.
     pub sky_linear: [f64; 3],
+    /// The streaming pipeline's state after this frame (DEM terrain only).
+    pub stream: Option<FeedFrame>,
+}
+
+impl FrameInfo {
+    /// True when nothing this view needs is still on its way (always, for the analytic
+    /// planet, which the GPU evaluates itself).
+    pub fn settled(&self) -> bool {
+        self.stream.as_ref().is_none_or(|s| s.complete)
+    }
 }
 
 /// Direction to the sun in the viewer's local frame: 35° above the horizon in the south-east,
@@ -113,15 +124,35 @@ pub struct TerrainRenderer {
     fill: FillPass,
     /// The map-space window each level texture currently holds (None: never filled).
     grids: Vec<Option<LevelGrid>>,
+    /// The DEM's streaming pipeline (None for the analytic planet).
+    feed: Option<DemFeed>,
     heights: wgpu::Texture,
 }
 
 impl TerrainRenderer {
+    /// A renderer with the default streaming settings.
     pub fn new(
         device: &wgpu::Device,
         settings: ClipmapSettings,
         terrain: Terrain,
         color_format: wgpu::TextureFormat,
+    ) -> Result<Self, RenderError> {
+        Self::with_streaming(
+            device,
+            settings,
+            terrain,
+            color_format,
+            StreamSettings::default(),
+        )
+    }
+
+    /// A renderer whose DEM tiles stream with `stream` (cache sizes, upload budget, faults).
+    pub fn with_streaming(
+        device: &wgpu::Device,
+        settings: ClipmapSettings,
+        terrain: Terrain,
+        color_format: wgpu::TextureFormat,
+        stream: StreamSettings,
     ) -> Result<Self, RenderError> {
         settings.validate()?;
         if settings.levels > MAX_LEVELS {
@@ -167,7 +198,8 @@ impl TerrainRenderer {
             format: wgpu::TextureFormat::R32Float,
             usage: wgpu::TextureUsages::TEXTURE_BINDING
                 | wgpu::TextureUsages::STORAGE_BINDING
-                | wgpu::TextureUsages::COPY_DST,
+                | wgpu::TextureUsages::COPY_DST
+                | wgpu::TextureUsages::COPY_SRC,
             view_formats: &[],
         });
         let heights_view = heights.create_view(&wgpu::TextureViewDescriptor {
@@ -276,6 +308,15 @@ impl TerrainRenderer {
         let mut fill = FillPass::new(device, 2 * settings.levels);
         fill.set_target(device, &heights_view);
         let grids = vec![None; settings.levels as usize];
+        let feed = match &terrain {
+            Terrain::Dem(dem) => {
+                // Up to 2 rectangles per level, each split in up to 3 row and 2 column pieces.
+                let mut feed = DemFeed::new(device, dem.clone(), stream, 12 * settings.levels)?;
+                feed.bind(device, &heights_view);
+                Some(feed)
+            }
+            Terrain::Analytic(_) => None,
+        };
         Ok(Self {
             settings,
             terrain,
@@ -292,8 +333,126 @@ impl TerrainRenderer {
             pipeline,
             fill,
             grids,
+            feed,
             heights,
         })
+    }
+
+    /// The grid a level's texture holds and its heights in grid order (row gy0 first, column
+    /// gx0 first), read back from the GPU: tests compare the fill with the terrain function.
+    pub fn read_level(
+        &self,
+        ctx: &super::GpuContext,
+        level: u32,
+    ) -> Result<Option<(LevelGrid, Vec<f32>)>, RenderError> {
+        let Some(grid) = self.grids.get(level as usize).copied().flatten() else {
+            return Ok(None);
+        };
+        let size = self.settings.texture_size;
+        let row_bytes = (size * 4).div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT)
+            * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
+        let buffer = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("level readback"),
+            size: row_bytes as u64 * size as u64,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let mut encoder = ctx.device.create_command_encoder(&Default::default());
+        encoder.copy_texture_to_buffer(
+            wgpu::TexelCopyTextureInfo {
+                texture: &self.heights,
+                mip_level: 0,
+                origin: wgpu::Origin3d {
+                    x: 0,
+                    y: 0,
+                    z: level,
+                },
+                aspect: wgpu::TextureAspect::All,
+            },
+            wgpu::TexelCopyBufferInfo {
+                buffer: &buffer,
+                layout: wgpu::TexelCopyBufferLayout {
+                    offset: 0,
+                    bytes_per_row: Some(row_bytes),
+                    rows_per_image: Some(size),
+                },
+            },
+            wgpu::Extent3d {
+                width: size,
+                height: size,
+                depth_or_array_layers: 1,
+            },
+        );
+        ctx.queue.submit([encoder.finish()]);
+        let (tx, rx) = std::sync::mpsc::channel();
+        buffer.map_async(wgpu::MapMode::Read, .., move |r| {
+            let _ = tx.send(r);
+        });
+        ctx.wait_idle()?;
+        rx.recv()
+            .map_err(|e| RenderError::Readback(e.to_string()))?
+            .map_err(|e| RenderError::Readback(e.to_string()))?;
+        let data = buffer
+            .get_mapped_range(..)
+            .map_err(|e| RenderError::Readback(e.to_string()))?;
+        let s = size as i64;
+        let mut out = Vec::with_capacity((size * size) as usize);
+        for j in 0..s {
+            let ty = (grid.gy0 + j).rem_euclid(s) as usize;
+            for i in 0..s {
+                let tx = (grid.gx0 + i).rem_euclid(s) as usize;
+                let at = ty * row_bytes as usize + 4 * tx;
+                out.push(f32::from_le_bytes([
+                    data[at],
+                    data[at + 1],
+                    data[at + 2],
+                    data[at + 3],
+                ]));
+            }
+        }
+        Ok(Some((grid, out)))
+    }
+
+    /// The streaming pipeline, for a DEM.
+    pub fn feed(&self) -> Option<&DemFeed> {
+        self.feed.as_ref()
+    }
+
+    /// Renders nothing but runs frames for `camera` (streaming, uploads, fills) until every
+    /// tile the view needs has arrived or `timeout` passes; returns whether it settled. The
+    /// headless renderer calls it before the frame it keeps (`globe render` without
+    /// `--no-wait`).
+    pub fn settle(
+        &mut self,
+        ctx: &super::GpuContext,
+        camera: &Camera,
+        width_px: u32,
+        height_px: u32,
+        timeout: std::time::Duration,
+    ) -> bool {
+        let deadline = std::time::Instant::now() + timeout;
+        loop {
+            let mut encoder = ctx
+                .device
+                .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                    label: Some("settle"),
+                });
+            let info = self.prepare(&ctx.queue, &mut encoder, camera, width_px, height_px);
+            ctx.queue.submit([encoder.finish()]);
+            if info.settled() {
+                return true;
+            }
+            let now = std::time::Instant::now();
+            if now >= deadline {
+                return false;
+            }
+            let backlog = info.stream.as_ref().is_some_and(|s| s.upload_backlog > 0);
+            if let Some(feed) = &mut self.feed
+                && !backlog
+            {
+                feed.wait_for_tile((deadline - now).min(std::time::Duration::from_millis(50)));
+            }
+        }
     }
 
     /// The terrain height at (lat, lon), from the height source (f64).
@@ -315,8 +474,12 @@ impl TerrainRenderer {
         let frame = camera.view_frame();
         let phi_v = frame.phi_v.rem_euclid(std::f64::consts::TAU);
         let theta_v = frame.theta_v;
-        let height_above_terrain_m =
-            camera.altitude_m - self.terrain_height_m(camera.lat_deg, camera.lon_deg);
+        // From the tiles at hand when streaming: a frame never waits for the file.
+        let ground_m = match &self.feed {
+            Some(feed) => feed.height_at_m(camera.lat_deg, camera.lon_deg),
+            None => self.terrain_height_m(camera.lat_deg, camera.lon_deg),
+        };
+        let height_above_terrain_m = camera.altitude_m - ground_m;
         let near_m = projection::near_plane_m(height_above_terrain_m);
         let aspect = width_px as f64 / height_px.max(1) as f64;
         let fov_y_rad = camera.fov_y_rad();
@@ -332,31 +495,9 @@ impl TerrainRenderer {
             selection.finest = self.settings.levels - 1;
         }
 
-        // Sectors inside the frustum.
-        let camera_from_view = camera.view_from_camera().transpose();
-        let eye_view_m = DVec3::new(0.0, 0.0, radius_m + camera.altitude_m);
-        let frustum = Frustum::new(camera_from_view, eye_view_m, fov_y_rad, aspect, near_m);
-        // Terrain radii within each level's outer ring, from the height source's local bounds.
-        let nadir = sphere::unit_vector(frame.phi_v, theta_v);
-        let terrain = &self.terrain;
-        let radius_range_m = |level: u32| {
-            let (lo, hi) = terrain.height_bounds_near_m(
-                nadir,
-                crate::clipmap::settings::level_outer_theta_rad(level),
-            );
-            (radius_m + lo, radius_m + hi)
-        };
-        let draw = DrawList::build(
-            &self.mesh,
-            &self.bounds,
-            &selection,
-            (!self.draw_all_sectors).then_some(&frustum),
-            radius_range_m,
-        );
-
         // Texture windows: the drawn levels and the one their outer rings blend into.
         let first = selection.coarsest.saturating_sub(1);
-        let mut jobs = Vec::new();
+        let mut targets = Vec::new();
         for level in first..=selection.finest {
             let old = self.grids[level as usize];
             let grid = LevelGrid::for_viewer(
@@ -366,28 +507,87 @@ impl TerrainRenderer {
                 theta_v,
                 old.as_ref(),
             );
-            for rect in grid.dirty_since(old.as_ref()) {
-                jobs.push(FillJob { grid, rect });
-            }
-            self.grids[level as usize] = Some(grid);
+            targets.push((grid, grid.dirty_since(old.as_ref())));
         }
-        let texels_filled = match &self.terrain {
-            Terrain::Analytic(planet) => self.fill.encode(queue, encoder, planet, &jobs),
-            Terrain::Dem(dem) => {
-                // CPU resampling from the memory-mapped pyramid, written toroidally (the
-                // streaming issue moves this onto a GPU tile cache).
-                let mut texels = 0;
-                for job in &jobs {
-                    let level =
-                        dem.level_for_texel(super::fill::band_limit_texel_m(&job.grid, radius_m));
-                    let sample =
-                        |phi: f64, theta: f64| dem.height_band_limited_m(phi, theta, level);
-                    let heights = upload::compute_rect(&job.grid, &job.rect, &sample);
-                    upload::upload_rect(queue, &self.heights, &job.grid, &job.rect, &heights);
-                    texels += job.rect.texels();
+        let (texels_filled, stream) = match &self.terrain {
+            Terrain::Analytic(planet) => {
+                let jobs: Vec<FillJob> = targets
+                    .iter()
+                    .flat_map(|(grid, rects)| {
+                        rects.iter().map(|rect| FillJob {
+                            grid: *grid,
+                            rect: *rect,
+                        })
+                    })
+                    .collect();
+                for (grid, _) in &targets {
+                    self.grids[grid.level as usize] = Some(*grid);
                 }
-                texels
+                (self.fill.encode(queue, encoder, planet, &jobs), None)
             }
+            Terrain::Dem(_) => {
+                let feed = self.feed.as_mut().expect("a DEM has a feed");
+                let jobs: Vec<LevelJob> = targets
+                    .iter()
+                    .map(|(grid, rects)| LevelJob {
+                        grid: *grid,
+                        rects: rects.clone(),
+                    })
+                    .collect();
+                let (filled, texels) = feed.update(queue, encoder, &jobs, (phi_v, theta_v));
+                for ((grid, _), ok) in targets.iter().zip(&filled) {
+                    if *ok {
+                        self.grids[grid.level as usize] = Some(*grid);
+                    }
+                }
+                // Draw down to the last level that, like every coarser one, holds its target.
+                let ready = |l: u32| {
+                    targets
+                        .iter()
+                        .find(|(g, _)| g.level == l)
+                        .is_some_and(|(g, _)| self.grids[l as usize] == Some(*g))
+                };
+                let mut ready_finest = None;
+                if (first..selection.coarsest).all(ready) {
+                    for l in selection.coarsest..=selection.finest {
+                        if !ready(l) {
+                            break;
+                        }
+                        ready_finest = Some(l);
+                    }
+                }
+                selection.limit_to_ready(ready_finest);
+                (texels, Some(feed.last.clone()))
+            }
+        };
+
+        // Sectors inside the frustum.
+        let camera_from_view = camera.view_from_camera().transpose();
+        let eye_view_m = DVec3::new(0.0, 0.0, radius_m + camera.altitude_m);
+        let frustum = Frustum::new(camera_from_view, eye_view_m, fov_y_rad, aspect, near_m);
+        // Terrain radii within each level's outer ring, from the height source's local bounds
+        // (the tiles at hand when streaming).
+        let nadir = sphere::unit_vector(frame.phi_v, theta_v);
+        let terrain = &self.terrain;
+        let feed = self.feed.as_ref();
+        let radius_range_m = |level: u32| {
+            let angle = crate::clipmap::settings::level_outer_theta_rad(level);
+            let (lo, hi) = match feed {
+                Some(f) => f.height_bounds_near_m(nadir, angle),
+                None => terrain.height_bounds_near_m(nadir, angle),
+            };
+            (radius_m + lo, radius_m + hi)
+        };
+        let draw = if selection.any_drawn() {
+            DrawList::build(
+                &self.mesh,
+                &self.bounds,
+                &selection,
+                (!self.draw_all_sectors).then_some(&frustum),
+                radius_range_m,
+            )
+        } else {
+            DrawList::default()
         };
 
         let mut levels = vec![LevelUniforms::default(); MAX_LEVELS as usize];
@@ -442,6 +642,7 @@ impl TerrainRenderer {
             near_m,
             height_above_terrain_m,
             sky_linear: sky_colour(camera.altitude_m),
+            stream,
         }
     }
 

@@ -12,7 +12,7 @@ use std::sync::Arc;
 
 use glam::DVec3;
 
-use crate::dem::pyramid::{NanPolicy, Plane, Pyramid, PyramidBuilder, Region};
+use crate::dem::pyramid::{CodeFn, NanPolicy, NotResident, Plane, Pyramid, PyramidBuilder, Region};
 use crate::dem::{DemError, RasterSource};
 use crate::geo::sphere;
 
@@ -72,20 +72,41 @@ impl DemTerrain {
     /// The avg plane of `level` at (lat, lon), bilinear, blended to the pole's value beyond the
     /// outermost row (see [`PoleCap`]); sea level outside the data.
     pub fn sample_m(&self, lat_deg: f64, lon_deg: f64, level: usize) -> f64 {
+        let code = |l, p, r, c| self.pyramid.pixel_code(l, p, r, c);
+        self.sample_m_with(lat_deg, lon_deg, level, &code)
+            .unwrap_or(0.0)
+    }
+
+    /// As [`DemTerrain::sample_m`], reading codes through `code` (a cache of streamed tiles,
+    /// which may lack the tile needed).
+    pub fn sample_m_with(
+        &self,
+        lat_deg: f64,
+        lon_deg: f64,
+        level: usize,
+        code: CodeFn<'_>,
+    ) -> Result<f64, NotResident> {
         let [north, south] = self.poles.get(level).copied().unwrap_or([None, None]);
-        let towards = |cap: PoleCap, pole_lat: f64| {
+        let plane = |lat: f64| {
+            self.pyramid
+                .sample_plane_with(lat, lon_deg, level, Plane::Avg, code)
+                .map(|v| v.unwrap_or(0.0))
+        };
+        let towards = |cap: PoleCap, pole_lat: f64| -> Result<f64, NotResident> {
             let t = ((lat_deg - cap.row_lat_deg) / (pole_lat - cap.row_lat_deg)).clamp(0.0, 1.0);
-            let row = self
-                .pyramid
-                .sample(cap.row_lat_deg, lon_deg, level)
-                .unwrap_or(0.0);
-            row + (cap.height_m - row) * t
+            let row = plane(cap.row_lat_deg)?;
+            Ok(row + (cap.height_m - row) * t)
         };
         match (north, south) {
             (Some(cap), _) if lat_deg > cap.row_lat_deg => towards(cap, 90.0),
             (_, Some(cap)) if lat_deg < cap.row_lat_deg => towards(cap, -90.0),
-            _ => self.pyramid.sample(lat_deg, lon_deg, level).unwrap_or(0.0),
+            _ => plane(lat_deg),
         }
+    }
+
+    /// The pole caps of `level` (north, south), where its grid reaches a pole.
+    pub fn pole_caps(&self, level: usize) -> [Option<PoleCap>; 2] {
+        self.poles.get(level).copied().unwrap_or([None, None])
     }
 
     pub fn radius_m(&self) -> f64 {
@@ -94,6 +115,11 @@ impl DemTerrain {
 
     pub fn pyramid(&self) -> &Pyramid {
         &self.pyramid
+    }
+
+    /// The shared pyramid (the tile streamer reads it on other threads).
+    pub fn pyramid_arc(&self) -> Arc<Pyramid> {
+        self.pyramid.clone()
     }
 
     pub fn describe(&self) -> &str {
@@ -131,21 +157,47 @@ impl DemTerrain {
     /// of a level a few pixels across the cap (conservative: each coarse min/max bounds every
     /// finer sample under it). Outside the data, sea level.
     pub fn height_bounds_near_m(&self, u: DVec3, angle_rad: f64) -> (f64, f64) {
+        let code = |l, p, r, c| self.pyramid.pixel_code(l, p, r, c);
+        self.height_bounds_near_m_with(u, angle_rad, &code)
+            .unwrap_or(self.range_m)
+    }
+
+    /// As [`DemTerrain::height_bounds_near_m`], reading codes through `code`.
+    pub fn height_bounds_near_m_with(
+        &self,
+        u: DVec3,
+        angle_rad: f64,
+        code: CodeFn<'_>,
+    ) -> Result<(f64, f64), NotResident> {
+        self.height_bounds_near_m_at_level_with(u, angle_rad, self.bounds_level(angle_rad), code)
+    }
+
+    /// Bounds within `angle_rad` of `u` from the min/max planes of `level` (any level bounds
+    /// the terrain; coarser ones more loosely).
+    pub fn height_bounds_near_m_at_level_with(
+        &self,
+        u: DVec3,
+        angle_rad: f64,
+        level: usize,
+        code: CodeFn<'_>,
+    ) -> Result<(f64, f64), NotResident> {
         let (phi, theta, _) = sphere::phi_theta_height_from_ecef_m(u, 1.0);
         let (lat, lon) = sphere::lat_lon_deg_from_phi_theta(phi, theta);
-        let level = self.pyramid.level_for_spacing(angle_rad.to_degrees() / 4.0);
-        match self.pyramid.min_max_in(
-            Region::Cap {
-                lat_deg: lat,
-                lon_deg: lon,
-                radius_rad: angle_rad,
-            },
-            level,
-        ) {
+        let region = Region::Cap {
+            lat_deg: lat,
+            lon_deg: lon,
+            radius_rad: angle_rad,
+        };
+        Ok(match self.pyramid.min_max_in_with(region, level, code)? {
             Some(b) if b.complete => (b.min_m, b.max_m),
             Some(b) => (b.min_m.min(0.0), b.max_m.max(0.0)),
             None => (0.0, 0.0),
-        }
+        })
+    }
+
+    /// The level whose min/max planes bound a cap of `angle_rad`: a few pixels across it.
+    pub fn bounds_level(&self, angle_rad: f64) -> usize {
+        self.pyramid.level_for_spacing(angle_rad.to_degrees() / 4.0)
     }
 }
 

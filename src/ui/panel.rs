@@ -401,6 +401,9 @@ fn frame_section(ui: &mut egui::Ui, readout: &Readout<'_>) {
         group_digits(info.texels_filled),
         format_length_m(info.near_m)
     ));
+    if let Some(st) = &info.stream {
+        stream_section(ui, st, &sel.waiting());
+    }
     egui::CollapsingHeader::new("levels: why each is drawn or not")
         .default_open(false)
         .show(ui, |ui| {
@@ -428,6 +431,7 @@ fn frame_section(ui: &mut egui::Ui, readout: &Readout<'_>) {
                             LevelStatus::Drawn => Color32::from_rgb(120, 210, 120),
                             LevelStatus::BeyondHorizon => Color32::GRAY,
                             LevelStatus::SubPixel => Color32::from_rgb(220, 160, 90),
+                            LevelStatus::Waiting => Color32::from_rgb(230, 90, 90),
                         };
                         ui.label(level.to_string());
                         ui.label(format_deg(outer));
@@ -437,6 +441,47 @@ fn frame_section(ui: &mut egui::Ui, readout: &Readout<'_>) {
                     }
                 });
         });
+}
+
+/// The tile pipeline: what is queued, reading, cached and uploaded, and which levels wait.
+fn stream_section(ui: &mut egui::Ui, st: &crate::render::dem_feed::FeedFrame, waiting: &[u32]) {
+    let mb = |b: u64| b as f64 / (1 << 20) as f64;
+    let s = &st.stream;
+    ui.separator();
+    ui.strong(if st.complete {
+        "streaming: settled"
+    } else {
+        "streaming: loading"
+    });
+    ui.label(format!(
+        "queued {}   in flight {}   missing {} of {}",
+        s.queued, s.in_flight, st.tiles_missing, st.tiles_needed
+    ));
+    ui.label(format!(
+        "tiles requested {}  loaded {}  cancelled {}  failed {}  retries {}",
+        s.tiles_requested, s.tiles_loaded, s.tiles_cancelled, s.tiles_failed, s.retries
+    ));
+    ui.label(format!(
+        "cache {:.1} / {:.0} MB ({} tiles), hit rate {}",
+        mb(st.cache_bytes),
+        mb(st.cache_budget),
+        st.cache_tiles,
+        st.cache_hit_rate
+            .map_or("–".to_string(), |r| format!("{:.1} %", 100.0 * r))
+    ));
+    ui.label(format!(
+        "read {:.1} MB/s   GPU tiles {} / {}   uploads this frame {} (backlog {})",
+        st.read_mb_per_s, st.gpu_tiles, st.gpu_capacity, st.uploads, st.upload_backlog
+    ));
+    if !waiting.is_empty() {
+        ui.label(
+            RichText::new(format!("levels waiting for data: {waiting:?}"))
+                .color(Color32::from_rgb(230, 90, 90)),
+        );
+    }
+    if let Some(e) = &st.last_error {
+        ui.label(RichText::new(format!("last error: {e}")).color(Color32::from_rgb(230, 90, 90)));
+    }
 }
 
 fn camera_section(ui: &mut egui::Ui, readout: &Readout<'_>) {
@@ -569,6 +614,7 @@ mod tests {
             near_m: 1.0,
             height_above_terrain_m: 10_000.0,
             sky_linear: [0.0; 3],
+            stream: Some(Default::default()),
         };
         let stats = FrameStats { frame_ms: 16.0 };
         let mut panel = Panel::new(&settings);

@@ -11,6 +11,14 @@ use super::format::{Encoding, Extents, Header, LevelGeom, TileEntry};
 use crate::dem::DemError;
 use crate::dem::raster::GeoGrid;
 
+/// Reads the stored code of (level, plane, row, col); `None` when the tile holding it is not
+/// at hand (a cache of streamed tiles). The map itself always has it.
+pub type CodeFn<'a> = &'a dyn Fn(usize, Plane, usize, usize) -> Option<i16>;
+
+/// A code needed for an answer lies in a tile that is not resident.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct NotResident;
+
 /// Which plane of a tile.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Plane {
@@ -442,6 +450,12 @@ impl Pyramid {
         i16::from_le_bytes([self.map[at], self.map[at + 1]])
     }
 
+    /// The stored code of plane `p` at pixel (row, col) of a level, `None` out of range.
+    pub fn pixel_code(&self, level: usize, p: Plane, row: usize, col: usize) -> Option<i16> {
+        let l = self.header.levels.get(level)?;
+        (row < l.rows && col < l.cols).then(|| self.code(level, p, row, col))
+    }
+
     /// Height in metres of plane `p` at pixel (row, col) of a level.
     pub fn pixel_m(&self, level: usize, p: Plane, row: usize, col: usize) -> Option<f64> {
         let l = self.header.levels.get(level)?;
@@ -509,8 +523,27 @@ impl Pyramid {
 
     /// As [`Pyramid::sample`], of any plane.
     pub fn sample_plane(&self, lat_deg: f64, lon_deg: f64, level: usize, p: Plane) -> Option<f64> {
-        let l = *self.header.levels.get(level)?;
-        let (row, col) = self.pixel_coords(level, lat_deg, lon_deg)?;
+        let code = |l, p, r, c| Some(self.code(l, p, r, c));
+        self.sample_plane_with(lat_deg, lon_deg, level, p, &code)
+            .unwrap_or(None)
+    }
+
+    /// As [`Pyramid::sample_plane`], reading codes through `code` (level, plane, row, col),
+    /// which may lack some tiles (the streamer's resident set): `Err(NotResident)` then.
+    pub fn sample_plane_with(
+        &self,
+        lat_deg: f64,
+        lon_deg: f64,
+        level: usize,
+        p: Plane,
+        code: CodeFn<'_>,
+    ) -> Result<Option<f64>, NotResident> {
+        let Some(l) = self.header.levels.get(level).copied() else {
+            return Ok(None);
+        };
+        let Some((row, col)) = self.pixel_coords(level, lat_deg, lon_deg) else {
+            return Ok(None);
+        };
         let row = row.clamp(0.0, (l.rows - 1) as f64);
         let r0 = (row as usize).min(l.rows - 1);
         let fr = row - r0 as f64;
@@ -528,21 +561,26 @@ impl Pyramid {
             let c0 = (c as usize).min(l.cols - 1);
             (c0, (c0 + 1).min(l.cols - 1), c - c0 as f64)
         };
-        let v = |r, c| self.header.encoding.decode(self.code(level, p, r, c));
+        let v = |r, c| -> Result<f64, NotResident> {
+            Ok(self
+                .header
+                .encoding
+                .decode(code(level, p, r, c).ok_or(NotResident)?))
+        };
         let top = if fc == 0.0 {
-            v(r0, c0)
+            v(r0, c0)?
         } else {
-            (1.0 - fc) * v(r0, c0) + fc * v(r0, c1)
+            (1.0 - fc) * v(r0, c0)? + fc * v(r0, c1)?
         };
         if fr == 0.0 {
-            return Some(top);
+            return Ok(Some(top));
         }
         let bottom = if fc == 0.0 {
-            v(r1, c0)
+            v(r1, c0)?
         } else {
-            (1.0 - fc) * v(r1, c0) + fc * v(r1, c1)
+            (1.0 - fc) * v(r1, c0)? + fc * v(r1, c1)?
         };
-        Some((1.0 - fr) * top + fr * bottom)
+        Ok(Some((1.0 - fr) * top + fr * bottom))
     }
 
     /// Bounds of the terrain over a region at a level, from the min/max planes: they hold for
@@ -550,7 +588,21 @@ impl Pyramid {
     /// point of the region (the pixels read are all those whose centre is within one pixel of
     /// the region). `None` when the region misses the data or the level does not exist.
     pub fn min_max_in(&self, region: Region, level: usize) -> Option<HeightBounds> {
-        let l = *self.header.levels.get(level)?;
+        let code = |l, p, r, c| Some(self.code(l, p, r, c));
+        self.min_max_in_with(region, level, &code).unwrap_or(None)
+    }
+
+    /// As [`Pyramid::min_max_in`], reading codes through `code`, which may lack some tiles:
+    /// `Err(NotResident)` then.
+    pub fn min_max_in_with(
+        &self,
+        region: Region,
+        level: usize,
+        code: CodeFn<'_>,
+    ) -> Result<Option<HeightBounds>, NotResident> {
+        let Some(l) = self.header.levels.get(level).copied() else {
+            return Ok(None);
+        };
         let (south, north, west, span) = match region {
             Region::Box {
                 south_deg,
@@ -559,7 +611,7 @@ impl Pyramid {
                 east_deg,
             } => {
                 if south_deg.is_nan() || north_deg.is_nan() || south_deg > north_deg {
-                    return None;
+                    return Ok(None);
                 }
                 let span = if east_deg - west_deg >= 360.0 {
                     360.0
@@ -574,7 +626,7 @@ impl Pyramid {
                 radius_rad,
             } => {
                 if radius_rad.is_nan() || radius_rad < 0.0 {
-                    return None;
+                    return Ok(None);
                 }
                 let r = radius_rad.to_degrees();
                 let (s, n) = (lat_deg - r, lat_deg + r);
@@ -594,7 +646,7 @@ impl Pyramid {
         let (south, north) = (south.max(-90.0), north.min(90.0));
         let (s_c, n_c) = (south.max(e.south_deg), north.min(e.north_deg));
         if s_c > n_c {
-            return None;
+            return Ok(None);
         }
         let tol = 1e-9;
         let mut complete = s_c <= south + tol && n_c >= north - tol;
@@ -633,7 +685,7 @@ impl Pyramid {
                 }
             }
             if col_ranges.is_empty() {
-                return None;
+                return Ok(None);
             }
             if covered < span - 1e-9 {
                 complete = false;
@@ -646,17 +698,17 @@ impl Pyramid {
             for &(a, b) in &col_ranges {
                 for c in a..=b {
                     let col = c.rem_euclid(n) as usize;
-                    lo = lo.min(self.code(level, Plane::Min, row, col));
-                    hi = hi.max(self.code(level, Plane::Max, row, col));
+                    lo = lo.min(code(level, Plane::Min, row, col).ok_or(NotResident)?);
+                    hi = hi.max(code(level, Plane::Max, row, col).ok_or(NotResident)?);
                     pixels += 1;
                 }
             }
         }
-        Some(HeightBounds {
+        Ok(Some(HeightBounds {
             min_m: self.header.encoding.decode(lo),
             max_m: self.header.encoding.decode(hi),
             complete,
             pixels,
-        })
+        }))
     }
 }

@@ -1,0 +1,113 @@
+// Fills a rectangle of a clipmap level texture from the GPU tile cache of a DEM pyramid
+// (compute). Rust twin: terrain::dem::DemTerrain::sample_m (f64): bilinear between pixel
+// centres, longitude wrapping (global grids) or sea level outside the extents (regional ones),
+// rows clamped at the edges, and the pole caps (blend from the outermost row to its mean).
+//
+// Pixel coordinates are linear in the grid indices within one job (the CPU splits rectangles
+// at the poles, where rows fold back), so they are passed as an integer base, a fraction
+// and a step: the fraction stays small, so f32 keeps sub-millimetre positions even at 30″.
+
+// Rust twin: render::tiles::gpu_data::DemFillParams.
+struct DemFillParams {
+    base: vec2<i32>,        // integer (col, row) of the job's first grid point
+    frac: vec2<f32>,        // its fractional (col, row)
+    step: vec2<f32>,        // (d col / d gx, d row / d gy)
+    slot0: vec2<u32>,       // texel of the first grid point (toroidal)
+    extent: vec2<u32>,
+    layer: u32,
+    size: u32,
+    page_base: u32,         // first page-table entry of the pyramid level
+    tiles_x: u32,
+    cols: i32,
+    rows: i32,
+    tile_size: i32,
+    wraps: u32,
+    // Pole caps: rows from the outermost row to the pole (0: no cap) and the pole's height.
+    cap_north: vec2<f32>,
+    cap_south: vec2<f32>,
+    // metres = offset + quantum · code
+    decode: vec2<f32>,
+    _pad: vec2<u32>,
+}
+
+const NO_SLOT: u32 = 0xffffffffu;
+
+@group(0) @binding(0) var<uniform> params: DemFillParams;
+@group(0) @binding(1) var out_heights: texture_storage_2d_array<r32float, write>;
+@group(0) @binding(2) var tiles: texture_2d_array<i32>;
+@group(0) @binding(3) var<storage, read> page: array<u32>;
+
+// Height of pixel (col, row), both inside the level's grid.
+fn pixel(col: i32, row: i32) -> f32 {
+    let t = params.tile_size;
+    let entry = params.page_base + u32(row / t) * params.tiles_x + u32(col / t);
+    let slot = page[entry];
+    if slot == NO_SLOT {
+        // The CPU only dispatches jobs whose tiles are resident; this cannot show.
+        return 0.0;
+    }
+    let code = textureLoad(tiles, vec2<i32>(col % t, row % t), i32(slot), 0).x;
+    return params.decode.x + params.decode.y * f32(code);
+}
+
+fn wrap_col(c: i32) -> i32 {
+    if params.wraps != 0u {
+        return ((c % params.cols) + params.cols) % params.cols;
+    }
+    return clamp(c, 0, params.cols - 1);
+}
+
+// Bilinear along a row (columns c, c+1 with weight fc).
+fn row_sample(row: i32, c: i32, fc: f32) -> f32 {
+    let r = clamp(row, 0, params.rows - 1);
+    let a = pixel(wrap_col(c), r);
+    if fc == 0.0 {
+        return a;
+    }
+    return a + fc * (pixel(wrap_col(c + 1), r) - a);
+}
+
+@compute @workgroup_size(8, 8, 1)
+fn cs_main(@builtin(global_invocation_id) id: vec3<u32>) {
+    if id.x >= params.extent.x || id.y >= params.extent.y {
+        return;
+    }
+    let c_rel = params.frac.x + f32(id.x) * params.step.x;
+    let r_rel = params.frac.y + f32(id.y) * params.step.y;
+    let c_floor = floor(c_rel);
+    let r_floor = floor(r_rel);
+    let ci = params.base.x + i32(c_floor);
+    let ri = params.base.y + i32(r_floor);
+    let fc = c_rel - c_floor;
+    let fr = r_rel - r_floor;
+    var h = 0.0;
+    var inside = true;
+    if params.wraps == 0u {
+        // Sea level outside a regional grid (its extents are the pixel edges).
+        let c_abs = f32(ci) + fc;
+        let r_abs = f32(ri) + fr;
+        inside = c_abs >= -0.5 && c_abs <= f32(params.cols) - 0.5
+            && r_abs >= -0.5 && r_abs <= f32(params.rows) - 0.5;
+    }
+    if inside {
+        let north = f32(ri) + fr;                    // rows below the outermost northern one
+        let south = f32(ri - (params.rows - 1)) + fr; // rows past the outermost southern one
+        if params.cap_north.x > 0.0 && north < 0.0 {
+            let t = clamp(-north / params.cap_north.x, 0.0, 1.0);
+            let v = row_sample(0, ci, fc);
+            h = v + (params.cap_north.y - v) * t;
+        } else if params.cap_south.x > 0.0 && south > 0.0 {
+            let t = clamp(south / params.cap_south.x, 0.0, 1.0);
+            let v = row_sample(params.rows - 1, ci, fc);
+            h = v + (params.cap_south.y - v) * t;
+        } else if ri < 0 || ri >= params.rows - 1 || fr == 0.0 {
+            h = row_sample(ri, ci, fc);
+        } else {
+            let top = row_sample(ri, ci, fc);
+            let bottom = row_sample(ri + 1, ci, fc);
+            h = top + fr * (bottom - top);
+        }
+    }
+    let slot = (params.slot0 + id.xy) % vec2<u32>(params.size);
+    textureStore(out_heights, slot, params.layer, vec4<f32>(h, 0.0, 0.0, 0.0));
+}

@@ -1,0 +1,496 @@
+//! Feeds the clipmap level textures of a DEM from the tile streamer (issue 4): works out which
+//! pyramid tiles each level's new texels need, asks the streamer for the missing ones (coarse
+//! levels first, then finer ones nearest the viewer), uploads arrived tiles into the GPU tile
+//! cache within a per-frame budget, and fills a level only when every tile it needs is there.
+//!
+//! The render thread never touches the file: the camera's height and the culling bounds are
+//! read from the decoded tiles at hand, falling back to coarser levels (whose min/max still
+//! bound the terrain) until the finer tiles arrive.
+
+use std::cell::RefCell;
+use std::collections::{HashMap, VecDeque};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use glam::DVec3;
+
+use crate::clipmap::levels::{GridRect, LevelGrid};
+use crate::dem::pyramid::{CodeFn, Plane};
+use crate::geo::sphere;
+use crate::stream::source::open_source;
+use crate::stream::{
+    Completion, Priority, StreamSettings, StreamStats, TileCache, TileData, TileKey, TileStreamer,
+};
+use crate::terrain::DemTerrain;
+
+use super::RenderError;
+use super::fill::band_limit_texel_m;
+use super::tiles::{DemFillParams, DemFillPass, GpuTileCache, empty_params};
+
+/// One level's update this frame: the grid it should hold and the rectangles that differ
+/// from what its texture holds now.
+#[derive(Clone, Debug)]
+pub struct LevelJob {
+    pub grid: LevelGrid,
+    pub rects: Vec<GridRect>,
+}
+
+/// What the feed did in one frame, and the pipeline's state (for the UI and `globe bench`).
+#[derive(Clone, Debug, Default)]
+pub struct FeedFrame {
+    pub stream: StreamStats,
+    /// Tiles the levels and the CPU queries need this frame.
+    pub tiles_needed: u32,
+    /// Of those, not yet decoded (asked of the streamer).
+    pub tiles_missing: u32,
+    pub uploads: u32,
+    /// Tiles decoded and waiting for upload budget.
+    pub upload_backlog: u32,
+    pub cache_bytes: u64,
+    pub cache_budget: u64,
+    pub cache_tiles: usize,
+    pub cache_hit_rate: Option<f64>,
+    pub gpu_tiles: usize,
+    pub gpu_capacity: usize,
+    pub gpu_bytes_uploaded: u64,
+    /// True when every needed tile is on the GPU and every wanted level was filled.
+    pub complete: bool,
+    pub last_error: Option<String>,
+    /// Bytes read from the source per second, over the last half second or more.
+    pub read_mb_per_s: f64,
+}
+
+/// The DEM's streaming pipeline, owned by the terrain renderer.
+pub struct DemFeed {
+    dem: DemTerrain,
+    streamer: TileStreamer,
+    cache: TileCache,
+    gpu: GpuTileCache,
+    fill: DemFillPass,
+    settings: StreamSettings,
+    frame: u64,
+    /// Tiles the CPU queries (camera height, bounds) found missing since the last update.
+    aux_missing: RefCell<HashMap<TileKey, Priority>>,
+    errors: VecDeque<String>,
+    pub last: FeedFrame,
+    started: Instant,
+    /// (when, bytes read then) of the last rate sample.
+    rate_sample: (Instant, u64),
+    read_mb_per_s: f64,
+}
+
+/// Priority of the camera's own tile (its height picks the near plane and θ̃min).
+const CAMERA_PRIORITY: Priority = 0;
+/// Bounds tiles come after the levels' tiles of the same frame.
+const BOUNDS_PRIORITY: Priority = 1 << 62;
+
+impl DemFeed {
+    pub fn new(
+        device: &wgpu::Device,
+        dem: DemTerrain,
+        settings: StreamSettings,
+        fill_capacity: u32,
+    ) -> Result<Self, RenderError> {
+        let source = open_source(dem.pyramid_arc(), settings.faults);
+        let streamer = TileStreamer::new(source, &settings)
+            .map_err(|e| RenderError::Stream(format!("could not start the tile streamer: {e}")))?;
+        let gpu = GpuTileCache::new(device, dem.pyramid(), settings.gpu_tiles);
+        Ok(Self {
+            cache: TileCache::new(settings.cache_bytes),
+            gpu,
+            fill: DemFillPass::new(device, fill_capacity),
+            streamer,
+            dem,
+            settings,
+            frame: 0,
+            aux_missing: RefCell::new(HashMap::new()),
+            errors: VecDeque::new(),
+            last: FeedFrame::default(),
+            started: Instant::now(),
+            rate_sample: (Instant::now(), 0),
+            read_mb_per_s: 0.0,
+        })
+    }
+
+    pub fn bind(&mut self, device: &wgpu::Device, heights: &wgpu::TextureView) {
+        self.fill.bind(device, heights, &self.gpu);
+    }
+
+    pub fn settings(&self) -> &StreamSettings {
+        &self.settings
+    }
+
+    /// Seconds since the feed started (for MB/s).
+    pub fn age_s(&self) -> f64 {
+        self.started.elapsed().as_secs_f64()
+    }
+
+    fn key(&self, level: usize, row: usize, col: usize) -> TileKey {
+        let t = self.dem.pyramid().tile_size();
+        TileKey {
+            level: level as u32,
+            tx: (col / t) as u32,
+            ty: (row / t) as u32,
+        }
+    }
+
+    /// Runs `f` with a code reader over the decoded tiles; missing tiles are noted (with
+    /// `priority`) when `note` is true.
+    fn with_codes<R>(&self, note: bool, priority: Priority, f: impl FnOnce(CodeFn<'_>) -> R) -> R {
+        let t = self.dem.pyramid().tile_size();
+        let code = |level: usize, p: Plane, row: usize, col: usize| -> Option<i16> {
+            let key = self.key(level, row, col);
+            match self.cache.peek(&key) {
+                Some(tile) => Some(tile.code(p, col % t, row % t)),
+                None => {
+                    if note {
+                        self.aux_missing.borrow_mut().insert(key, priority);
+                    }
+                    None
+                }
+            }
+        };
+        f(&code)
+    }
+
+    /// The terrain height at (lat, lon) from the finest level at hand (the finest level's tile
+    /// is asked for first); sea level before anything has arrived.
+    pub fn height_at_m(&self, lat_deg: f64, lon_deg: f64) -> f64 {
+        for level in 0..self.dem.pyramid().level_count() {
+            let got = self.with_codes(level == 0, CAMERA_PRIORITY, |code| {
+                self.dem.sample_m_with(lat_deg, lon_deg, level, code)
+            });
+            if let Ok(h) = got {
+                return h;
+            }
+        }
+        0.0
+    }
+
+    /// Terrain bounds within `angle_rad` of `u` (culling): from the level that
+    /// `DemTerrain::height_bounds_near_m` uses when its tiles are here, else from a coarser
+    /// level (its min/max bound every finer sample), else the global range.
+    pub fn height_bounds_near_m(&self, u: DVec3, angle_rad: f64) -> (f64, f64) {
+        let first = self.dem.bounds_level(angle_rad);
+        for level in first..self.dem.pyramid().level_count() {
+            let got = self.with_codes(level == first, BOUNDS_PRIORITY, |code| {
+                self.dem
+                    .height_bounds_near_m_at_level_with(u, angle_rad, level, code)
+            });
+            if let Ok(b) = got {
+                return b;
+            }
+        }
+        self.dem.height_range_m()
+    }
+
+    /// One frame: takes what the streamer delivered, uploads within the budget, fills the
+    /// levels whose tiles are all on the GPU, and tells the streamer what is still missing.
+    /// `levels` runs from coarse to fine; returns, per level, whether it was filled (its
+    /// texture now holds `grid`), and the texels written.
+    pub fn update(
+        &mut self,
+        queue: &wgpu::Queue,
+        encoder: &mut wgpu::CommandEncoder,
+        levels: &[LevelJob],
+        nadir_phi_theta: (f64, f64),
+    ) -> (Vec<bool>, u64) {
+        self.frame += 1;
+        let frame = self.frame;
+        for done in self.streamer.poll() {
+            match done {
+                Completion::Loaded(tile) => self.cache.insert(tile),
+                Completion::Failed(key, e) => {
+                    self.errors.push_back(format!("{key}: {e}"));
+                    if self.errors.len() > 8 {
+                        self.errors.pop_front();
+                    }
+                }
+                Completion::Cancelled(_) => {}
+            }
+        }
+
+        // Jobs and the tiles each level needs.
+        let nadir = sphere::unit_vector(nadir_phi_theta.0, nadir_phi_theta.1);
+        let mut needed: HashMap<TileKey, Priority> = HashMap::new();
+        let mut per_level: Vec<(Vec<DemFillParams>, Vec<TileKey>)> = Vec::new();
+        for (rank, job) in levels.iter().enumerate() {
+            let level = self
+                .dem
+                .level_for_texel(band_limit_texel_m(&job.grid, self.dem.radius_m()));
+            let mut params = Vec::new();
+            let mut tiles = Vec::new();
+            for rect in &job.rects {
+                self.jobs_for_rect(&job.grid, rect, level, &mut params, &mut tiles);
+            }
+            tiles.sort_unstable();
+            tiles.dedup();
+            for &k in &tiles {
+                let p = ((rank as u64) << 40) | self.distance_rank(k, nadir);
+                needed
+                    .entry(k)
+                    .and_modify(|q| *q = (*q).min(p))
+                    .or_insert(p);
+            }
+            per_level.push((params, tiles));
+        }
+        for (k, p) in self.aux_missing.take() {
+            needed
+                .entry(k)
+                .and_modify(|q| *q = (*q).min(p))
+                .or_insert(p);
+        }
+
+        // On the GPU already, decoded and waiting for upload, or missing.
+        let mut order: Vec<(Priority, TileKey)> = needed.iter().map(|(k, p)| (*p, *k)).collect();
+        order.sort_unstable();
+        let mut missing: HashMap<TileKey, Priority> = HashMap::new();
+        let mut to_upload: Vec<Arc<TileData>> = Vec::new();
+        for &(p, k) in &order {
+            if self.gpu.touch(&k, frame) {
+                continue;
+            }
+            match self.cache.get(&k) {
+                Some(tile) => to_upload.push(tile),
+                None => {
+                    missing.insert(k, p);
+                }
+            }
+        }
+        let budget = self.settings.uploads_per_frame as usize;
+        let mut uploads = 0;
+        for tile in to_upload.iter().take(budget) {
+            if self.gpu.upload(queue, tile, frame) {
+                uploads += 1;
+            } else {
+                self.note_error("the GPU tile cache is too small for this view (--gpu-tiles)");
+                break;
+            }
+        }
+
+        // Fill the levels whose tiles are all resident.
+        let mut filled = Vec::with_capacity(levels.len());
+        let mut jobs = Vec::new();
+        for (params, tiles) in &per_level {
+            let ready = tiles.iter().all(|k| self.gpu.contains(k))
+                && jobs.len() + params.len() <= self.fill.capacity() as usize;
+            if ready {
+                jobs.extend_from_slice(params);
+            }
+            filled.push(ready);
+        }
+        let texels = self.fill.encode(queue, encoder, &jobs);
+
+        self.streamer.want(&missing);
+        let stream = self.streamer.stats();
+        let dt = self.rate_sample.0.elapsed().as_secs_f64();
+        if dt >= 0.5 {
+            let bytes = stream.bytes_read - self.rate_sample.1;
+            self.read_mb_per_s = bytes as f64 / (1 << 20) as f64 / dt;
+            self.rate_sample = (Instant::now(), stream.bytes_read);
+        }
+        self.last = FeedFrame {
+            stream,
+            read_mb_per_s: self.read_mb_per_s,
+            tiles_needed: needed.len() as u32,
+            tiles_missing: missing.len() as u32,
+            uploads,
+            upload_backlog: (to_upload.len() - uploads as usize) as u32,
+            cache_bytes: self.cache.bytes(),
+            cache_budget: self.cache.budget(),
+            cache_tiles: self.cache.len(),
+            cache_hit_rate: self.cache.hit_rate(),
+            gpu_tiles: self.gpu.resident_count(),
+            gpu_capacity: self.gpu.capacity(),
+            gpu_bytes_uploaded: self.gpu.bytes_uploaded,
+            complete: missing.is_empty()
+                && to_upload.len() == uploads as usize
+                && filled.iter().all(|f| *f),
+            last_error: self.errors.back().cloned(),
+        };
+        (filled, texels)
+    }
+
+    fn note_error(&mut self, e: &str) {
+        if self.errors.back().map(String::as_str) != Some(e) {
+            self.errors.push_back(e.to_string());
+            if self.errors.len() > 8 {
+                self.errors.pop_front();
+            }
+        }
+    }
+
+    /// Blocks up to `timeout` for the next tile (headless rendering waiting for data).
+    pub fn wait_for_tile(&mut self, timeout: Duration) {
+        if let Some(done) = self.streamer.wait(timeout) {
+            if let Completion::Loaded(tile) = done {
+                self.cache.insert(tile);
+            } else if let Completion::Failed(key, e) = done {
+                self.note_error(&format!("{key}: {e}"));
+            }
+        }
+    }
+
+    pub fn streamer_idle(&self) -> bool {
+        self.streamer.is_idle()
+    }
+
+    /// Tile distance from the nadir in 1/1000 degree (lower is sooner).
+    fn distance_rank(&self, k: TileKey, nadir: DVec3) -> u64 {
+        let g = self.dem.pyramid().grid(k.level as usize);
+        let t = self.dem.pyramid().tile_size() as f64;
+        let lat = g.lat_of_row((k.ty as f64 + 0.5) * t);
+        let lon = g.lon_of_col((k.tx as f64 + 0.5) * t);
+        let (phi, theta) = sphere::phi_theta_from_lat_lon_deg(lat.clamp(-90.0, 90.0), lon);
+        let angle = nadir.angle_between(sphere::unit_vector(phi, theta));
+        ((angle.to_degrees() * 1000.0) as u64).min((1 << 40) - 1)
+    }
+
+    /// The dispatches (one per piece of `rect` between the poles' fold lines and, for a
+    /// regional grid, the 360° wrap) and the tiles they read.
+    fn jobs_for_rect(
+        &self,
+        grid: &LevelGrid,
+        rect: &GridRect,
+        level: usize,
+        out: &mut Vec<DemFillParams>,
+        tiles: &mut Vec<TileKey>,
+    ) {
+        use std::f64::consts::PI;
+        let pyr = self.dem.pyramid();
+        let g = pyr.grid(level);
+        let west = pyr.extents().west_deg;
+        let wraps = pyr.wraps();
+        let t = pyr.tile_size() as i64;
+        let (cols, rows) = (g.cols as i64, g.rows as i64);
+        let s = grid.size as i64;
+        let south_row = (PI / grid.dtheta_rad).round() as i64;
+        let end = rect.gy0 + rect.height as i64;
+        // Row pieces: beyond the north pole, between the poles, beyond the south pole.
+        let pieces = [
+            (rect.gy0, end.min(0), Fold::North),
+            (rect.gy0.max(0), end.min(south_row + 1), Fold::None),
+            (rect.gy0.max(south_row + 1), end, Fold::South),
+        ];
+        let [cap_n, cap_s] = self.dem.pole_caps(level);
+        let caps = (
+            cap_n.map_or([0.0, 0.0], |c| {
+                [
+                    ((90.0 - c.row_lat_deg) / g.dlat_deg) as f32,
+                    c.height_m as f32,
+                ]
+            }),
+            cap_s.map_or([0.0, 0.0], |c| {
+                [
+                    ((c.row_lat_deg + 90.0) / g.dlat_deg) as f32,
+                    c.height_m as f32,
+                ]
+            }),
+        );
+        let enc = pyr.encoding();
+        let (page_base, tiles_x) = self.gpu.level_page(level);
+        let dphi_deg = grid.dphi_rad.to_degrees();
+        let dcol = dphi_deg / g.dlon_deg;
+        for (ya, yb, fold) in pieces {
+            if yb <= ya {
+                continue;
+            }
+            let theta = ya as f64 * grid.dtheta_rad;
+            let (theta, extra_phi, sign) = match fold {
+                Fold::None => (theta, 0.0, 1.0),
+                Fold::North => (-theta, PI, -1.0),
+                Fold::South => (2.0 * PI - theta, PI, -1.0),
+            };
+            let lat = 90.0 - theta.to_degrees();
+            let row = (g.lat0_deg - lat) / g.dlat_deg;
+            let drow = sign * grid.dtheta_rad.to_degrees() / g.dlat_deg;
+            let h = (yb - ya) as u32;
+            // Column pieces: one for a wrapping grid (the shader wraps), split at the 360°
+            // wrap for a regional one.
+            let lon0 = (rect.gx0 as f64 * grid.dphi_rad + extra_phi).to_degrees();
+            let d0 = (lon0 - west).rem_euclid(360.0);
+            let mut col_pieces = vec![(0u32, rect.width, d0)];
+            if !wraps {
+                let last = d0 + (rect.width as f64 - 1.0) * dphi_deg;
+                if last >= 360.0 {
+                    let split = ((360.0 - d0) / dphi_deg)
+                        .ceil()
+                        .clamp(1.0, rect.width as f64) as u32;
+                    let d1 = d0 + split as f64 * dphi_deg - 360.0;
+                    col_pieces = vec![(0, split, d0)];
+                    if split < rect.width {
+                        col_pieces.push((split, rect.width - split, d1));
+                    }
+                }
+            }
+            for (x_off, w, d) in col_pieces {
+                let col = d / g.dlon_deg - 0.5;
+                let (col_floor, row_floor) = (col.floor(), row.floor());
+                let mut base_col = col_floor as i64;
+                if wraps {
+                    base_col = base_col.rem_euclid(cols);
+                }
+                let mut p = empty_params();
+                p.base = [base_col as i32, row_floor as i32];
+                p.frac = [(col - col_floor) as f32, (row - row_floor) as f32];
+                p.step = [dcol as f32, drow as f32];
+                p.slot0 = [
+                    (rect.gx0 + x_off as i64).rem_euclid(s) as u32,
+                    ya.rem_euclid(s) as u32,
+                ];
+                p.extent = [w, h];
+                p.layer = grid.level;
+                p.size = grid.size;
+                p.page_base = page_base;
+                p.tiles_x = tiles_x;
+                p.cols = cols as i32;
+                p.rows = rows as i32;
+                p.tile_size = t as i32;
+                p.wraps = wraps as u32;
+                p.cap_north = caps.0;
+                p.cap_south = caps.1;
+                p.decode = [enc.offset_m as f32, enc.quantum_m as f32];
+                out.push(p);
+
+                // Tiles: every pixel the bilinear footprints of this piece touch.
+                let r_last = row + (h as f64 - 1.0) * drow;
+                let r_lo = (row.min(r_last).floor() as i64).clamp(0, rows - 1);
+                let r_hi = (row.max(r_last).floor() as i64 + 1).clamp(0, rows - 1);
+                let c_lo = col.floor() as i64;
+                let c_hi = (col + (w as f64 - 1.0) * dcol).floor() as i64 + 1;
+                let mut col_tiles = Vec::new();
+                if wraps {
+                    if c_hi - c_lo + 1 >= cols {
+                        col_tiles.extend(0..(cols + t - 1) / t);
+                    } else {
+                        let mut c = c_lo;
+                        while c <= c_hi {
+                            let m = c.rem_euclid(cols);
+                            col_tiles.push(m / t);
+                            c += (t - m % t).min(cols - m);
+                        }
+                    }
+                } else {
+                    let (a, b) = (c_lo.clamp(0, cols - 1), c_hi.clamp(0, cols - 1));
+                    col_tiles.extend(a / t..=b / t);
+                }
+                for ty in r_lo / t..=r_hi / t {
+                    for &tx in &col_tiles {
+                        tiles.push(TileKey {
+                            level: level as u32,
+                            tx: tx as u32,
+                            ty: ty as u32,
+                        });
+                    }
+                }
+            }
+        }
+    }
+}
+
+#[derive(Clone, Copy)]
+enum Fold {
+    None,
+    North,
+    South,
+}

@@ -1,0 +1,141 @@
+//! The decoded-tile cache: least recently used tiles go first once the byte budget is full.
+
+use std::sync::Arc;
+
+use lru::LruCache;
+
+use super::TileKey;
+use super::source::TileData;
+
+pub struct TileCache {
+    tiles: LruCache<TileKey, Arc<TileData>>,
+    bytes: u64,
+    budget: u64,
+    pub hits: u64,
+    pub misses: u64,
+    pub evicted: u64,
+}
+
+impl TileCache {
+    pub fn new(budget_bytes: u64) -> Self {
+        Self {
+            tiles: LruCache::unbounded(),
+            bytes: 0,
+            budget: budget_bytes,
+            hits: 0,
+            misses: 0,
+            evicted: 0,
+        }
+    }
+
+    /// The tile, marked as used now; counts a hit or a miss.
+    pub fn get(&mut self, key: &TileKey) -> Option<Arc<TileData>> {
+        let found = self.tiles.get(key).cloned();
+        if found.is_some() {
+            self.hits += 1;
+        } else {
+            self.misses += 1;
+        }
+        found
+    }
+
+    /// The tile without touching its age or the statistics.
+    pub fn peek(&self, key: &TileKey) -> Option<&Arc<TileData>> {
+        self.tiles.peek(key)
+    }
+
+    pub fn contains(&self, key: &TileKey) -> bool {
+        self.tiles.contains(key)
+    }
+
+    /// Inserts a tile and evicts the least recently used ones until the budget holds again.
+    /// A single tile larger than the budget is still kept (the budget is then exceeded by it).
+    pub fn insert(&mut self, tile: Arc<TileData>) {
+        let bytes = tile.bytes();
+        if let Some(old) = self.tiles.put(tile.key, tile) {
+            self.bytes -= old.bytes();
+        }
+        self.bytes += bytes;
+        while self.bytes > self.budget && self.tiles.len() > 1 {
+            if let Some((_, t)) = self.tiles.pop_lru() {
+                self.bytes -= t.bytes();
+                self.evicted += 1;
+            }
+        }
+    }
+
+    pub fn bytes(&self) -> u64 {
+        self.bytes
+    }
+
+    pub fn budget(&self) -> u64 {
+        self.budget
+    }
+
+    pub fn len(&self) -> usize {
+        self.tiles.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.tiles.is_empty()
+    }
+
+    /// Hits / (hits + misses), or None before the first lookup.
+    pub fn hit_rate(&self) -> Option<f64> {
+        let n = self.hits + self.misses;
+        (n > 0).then(|| self.hits as f64 / n as f64)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::dem::pyramid::Encoding;
+
+    fn tile(tx: u32) -> Arc<TileData> {
+        Arc::new(TileData {
+            key: TileKey {
+                level: 0,
+                tx,
+                ty: 0,
+            },
+            tile_size: 16,
+            encoding: Encoding::default(),
+            avg: vec![0; 256],
+            min: vec![0; 256],
+            max: vec![0; 256],
+        })
+    }
+
+    #[test]
+    fn stays_within_the_byte_budget_and_evicts_the_least_recently_used() {
+        let one = tile(0).bytes();
+        let mut c = TileCache::new(3 * one);
+        for tx in 0..3 {
+            c.insert(tile(tx));
+        }
+        assert!(
+            c.get(&TileKey {
+                level: 0,
+                tx: 0,
+                ty: 0
+            })
+            .is_some()
+        );
+        c.insert(tile(3));
+        assert!(c.bytes() <= c.budget());
+        assert_eq!(c.len(), 3);
+        // Tile 1 was the least recently used (0 was touched by `get`).
+        assert!(!c.contains(&TileKey {
+            level: 0,
+            tx: 1,
+            ty: 0
+        }));
+        assert!(c.contains(&TileKey {
+            level: 0,
+            tx: 0,
+            ty: 0
+        }));
+        assert_eq!(c.evicted, 1);
+    }
+}

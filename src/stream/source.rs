@@ -1,0 +1,143 @@
+//! Where tiles come from: the memory-mapped pyramid, or a wrapper that injects latency and
+//! failures (for tests and `--tile-latency-ms` / `--tile-fail-rate`).
+
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::time::Duration;
+
+use super::{TileError, TileKey};
+use crate::dem::pyramid::{Encoding, Plane, Pyramid};
+
+/// A decoded tile: the three planes (rows north to south, `tile_size²` codes each; codes past
+/// the level's last row/column repeat it, as in the file).
+#[derive(Clone, Debug)]
+pub struct TileData {
+    pub key: TileKey,
+    pub tile_size: usize,
+    pub encoding: Encoding,
+    pub avg: Vec<i16>,
+    pub min: Vec<i16>,
+    pub max: Vec<i16>,
+}
+
+impl TileData {
+    /// Bytes this tile holds in memory (what the LRU budget counts).
+    pub fn bytes(&self) -> u64 {
+        (2 * (self.avg.len() + self.min.len() + self.max.len()) + std::mem::size_of::<Self>())
+            as u64
+    }
+
+    /// The code of plane `p` at tile sample (x, y).
+    pub fn code(&self, p: Plane, x: usize, y: usize) -> i16 {
+        let at = y * self.tile_size + x;
+        match p {
+            Plane::Avg => self.avg[at],
+            Plane::Min => self.min[at],
+            Plane::Max => self.max[at],
+        }
+    }
+}
+
+/// Reads tiles. Called from tokio's blocking pool, so a read may block (that is the point).
+pub trait TileSource: Send + Sync {
+    fn read(&self, key: TileKey) -> Result<TileData, TileError>;
+}
+
+/// Tiles from a memory-mapped pyramid: the file's length is re-checked before each read and the
+/// tile's CRC-32 verified (see "The mmap SIGBUS risk" in the module docs).
+pub struct MmapTileSource {
+    pyramid: Arc<Pyramid>,
+}
+
+impl MmapTileSource {
+    pub fn new(pyramid: Arc<Pyramid>) -> Self {
+        Self { pyramid }
+    }
+}
+
+impl TileSource for MmapTileSource {
+    fn read(&self, key: TileKey) -> Result<TileData, TileError> {
+        let err = |e: crate::dem::DemError| TileError::Read {
+            key,
+            message: e.to_string(),
+        };
+        self.pyramid.check_length().map_err(err)?;
+        let view = self
+            .pyramid
+            .tile_verified(key.level as usize, key.tx as usize, key.ty as usize)
+            .map_err(err)?;
+        Ok(TileData {
+            key,
+            tile_size: view.tile_size,
+            encoding: view.encoding,
+            avg: view.avg.into_owned(),
+            min: view.min.into_owned(),
+            max: view.max.into_owned(),
+        })
+    }
+}
+
+/// What the fault injector does to each read.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct FaultSettings {
+    /// Added to every read (a slow disk or a remote store), blocking like real I/O.
+    pub latency_ms: u64,
+    /// Fraction of reads that fail, 0…1, decided by a seeded generator (repeatable runs).
+    pub fail_rate: f64,
+    pub seed: u64,
+}
+
+impl FaultSettings {
+    pub fn is_active(&self) -> bool {
+        self.latency_ms > 0 || self.fail_rate > 0.0
+    }
+}
+
+/// Wraps a source with latency and a fraction of failing reads.
+pub struct FaultyTileSource<S> {
+    inner: S,
+    settings: FaultSettings,
+    reads: AtomicU64,
+}
+
+impl<S: TileSource> FaultyTileSource<S> {
+    pub fn new(inner: S, settings: FaultSettings) -> Self {
+        Self {
+            inner,
+            settings,
+            reads: AtomicU64::new(0),
+        }
+    }
+}
+
+impl<S: TileSource> TileSource for FaultyTileSource<S> {
+    fn read(&self, key: TileKey) -> Result<TileData, TileError> {
+        if self.settings.latency_ms > 0 {
+            std::thread::sleep(Duration::from_millis(self.settings.latency_ms));
+        }
+        let n = self.reads.fetch_add(1, Ordering::Relaxed);
+        let draw = splitmix64(self.settings.seed ^ n.wrapping_mul(0x9E37_79B9_7F4A_7C15));
+        let uniform = (draw >> 11) as f64 / (1u64 << 53) as f64;
+        if uniform < self.settings.fail_rate {
+            return Err(TileError::Injected { key });
+        }
+        self.inner.read(key)
+    }
+}
+
+fn splitmix64(mut x: u64) -> u64 {
+    x = x.wrapping_add(0x9E37_79B9_7F4A_7C15);
+    x = (x ^ (x >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    x = (x ^ (x >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    x ^ (x >> 31)
+}
+
+/// The source for a pyramid with `faults` applied (none when inactive).
+pub fn open_source(pyramid: Arc<Pyramid>, faults: FaultSettings) -> Arc<dyn TileSource> {
+    let mmap = MmapTileSource::new(pyramid);
+    if faults.is_active() {
+        Arc::new(FaultyTileSource::new(mmap, faults))
+    } else {
+        Arc::new(mmap)
+    }
+}
