@@ -11,8 +11,10 @@
 //! | [`clipmap`] | ring mesh, level texture windows, level and sector selection |
 //! | [`render`] | wgpu plumbing: context, terrain pass, compute fill, offscreen target |
 //! | [`scenes`] | the named views of DESIGN.md |
+//! | [`bench`] | `globe bench`: timed frames of a scene or the flight path |
 //! | [`ui`] | the window: winit + egui |
 
+pub mod bench;
 pub mod clipmap;
 pub mod dem;
 pub mod geo;

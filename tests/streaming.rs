@@ -58,3 +58,276 @@ fn gpu_fill_from_tiles_matches_the_cpu_sampler() {
         assert!(worst.0 < 0.05, "{name}: fill differs by {} m", worst.0);
     }
 }
+
+use std::collections::HashMap;
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+use globe::bench::{self, BenchOptions};
+use globe::render::offscreen::OffscreenFrame;
+use globe::scenes::flight;
+use globe::stream::source::TileSource;
+use globe::stream::{FaultSettings, StreamSettings, TileData, TileError, TileKey, TileStreamer};
+
+fn flight_options(latency_ms: u64, fail_rate: f64, cache_bytes: u64) -> BenchOptions {
+    BenchOptions {
+        scene: flight::NAME.into(),
+        frames: 24,
+        warmup: 0,
+        width: 192,
+        height: 108,
+        settings: ClipmapSettings::default(),
+        stream: StreamSettings {
+            cache_bytes,
+            faults: FaultSettings {
+                latency_ms,
+                fail_rate,
+                seed: 7,
+            },
+            ..StreamSettings::default()
+        },
+        frame_interval: Some(Duration::from_millis(16)),
+    }
+}
+
+/// The flight from space to the ground with 0, 50 and 500 ms per tile: the decoded-tile cache
+/// never exceeds its budget (set below the flight's 12 tiles, so it evicts), and once
+/// streaming settles the last frame is pixel-identical to a render that had everything loaded.
+/// (Frame times against latency are a benchmark: `globe bench --scene flight
+/// --tile-latency-ms 0,50,500`.)
+#[test]
+fn flight_settles_to_the_loaded_image_within_the_memory_budget() {
+    let Some((ctx, _guard)) = common::gpu() else {
+        return;
+    };
+    let terrain = Terrain::embedded_earth().unwrap();
+    let budget = 3 << 20;
+    for latency in [0, 50, 500] {
+        let run = bench::run(
+            ctx,
+            &terrain,
+            &flight_options(latency, 0.0, budget),
+            |_, _| {},
+        )
+        .unwrap();
+        let s = run.last_stream().unwrap().clone();
+        eprintln!(
+            "latency {latency} ms: cache max {} of {budget} B, loaded {}, settled {} in {:.2} s, \
+             final vs loaded {:?} px, frames with levels waiting {}",
+            run.cache_bytes_max(),
+            s.stream.tiles_loaded,
+            run.settled,
+            run.settle_s.unwrap(),
+            run.final_vs_loaded_px,
+            run.frames.iter().filter(|f| f.levels_waiting > 0).count()
+        );
+        assert!(run.cache_bytes_max() <= budget);
+        assert!(run.settled);
+        assert_eq!(run.final_vs_loaded_px, Some(0));
+    }
+}
+
+/// With one read in ten failing, the flight completes without a panic, failed reads are
+/// retried, and every tile is eventually loaded: the settled frame equals the loaded one.
+#[test]
+fn flight_survives_ten_percent_read_failures() {
+    let Some((ctx, _guard)) = common::gpu() else {
+        return;
+    };
+    let terrain = Terrain::embedded_earth().unwrap();
+    let run = bench::run(
+        ctx,
+        &terrain,
+        &flight_options(20, 0.1, 256 << 20),
+        |_, _| {},
+    )
+    .unwrap();
+    let s = run.last_stream().unwrap().clone();
+    eprintln!(
+        "10 % failures: retries {}, failed requests {}, loaded {}, requested {}, final vs loaded {:?} px",
+        s.stream.retries,
+        s.stream.tiles_failed,
+        s.stream.tiles_loaded,
+        s.stream.tiles_requested,
+        run.final_vs_loaded_px
+    );
+    assert!(
+        s.stream.retries > 0,
+        "10 % failures but nothing was retried"
+    );
+    assert!(run.settled);
+    assert_eq!(run.final_vs_loaded_px, Some(0));
+}
+
+/// A source that records which tiles it read, slowly.
+struct Recording {
+    reads: Mutex<Vec<TileKey>>,
+    latency: Duration,
+}
+
+impl TileSource for Recording {
+    fn read(&self, key: TileKey) -> Result<TileData, TileError> {
+        self.reads.lock().unwrap().push(key);
+        std::thread::sleep(self.latency);
+        Ok(TileData {
+            key,
+            tile_size: 4,
+            encoding: Default::default(),
+            avg: vec![0; 16],
+            min: vec![0; 16],
+            max: vec![0; 16],
+        })
+    }
+}
+
+/// After a jump, tiles of the old place that were only queued are never read: at most the
+/// reads already in flight at the jump finish, the rest are counted as cancelled.
+#[test]
+fn a_jump_cancels_the_old_places_queued_tiles() {
+    let source = Arc::new(Recording {
+        reads: Mutex::new(Vec::new()),
+        latency: Duration::from_millis(100),
+    });
+    let settings = StreamSettings {
+        max_in_flight: 2,
+        ..StreamSettings::default()
+    };
+    let streamer = TileStreamer::new(source.clone(), &settings).unwrap();
+    let place = |level: u32| -> HashMap<TileKey, u64> {
+        (0..20)
+            .map(|i| {
+                (
+                    TileKey {
+                        level,
+                        tx: i,
+                        ty: 0,
+                    },
+                    i as u64,
+                )
+            })
+            .collect()
+    };
+    streamer.want(&place(0));
+    std::thread::sleep(Duration::from_millis(150));
+    let read_before_jump = source.reads.lock().unwrap().len();
+    streamer.want(&place(1));
+    let deadline = Instant::now() + Duration::from_secs(10);
+    let mut loaded_new = 0;
+    while loaded_new < 20 && Instant::now() < deadline {
+        if let Some(globe::stream::Completion::Loaded(t)) = streamer.wait(Duration::from_secs(1))
+            && t.key.level == 1
+        {
+            loaded_new += 1;
+        }
+    }
+    let reads = source.reads.lock().unwrap().clone();
+    let old_reads = reads.iter().filter(|k| k.level == 0).count();
+    let stats = streamer.stats();
+    eprintln!(
+        "old place: {read_before_jump} reads before the jump, {old_reads} in all; \
+         cancelled {}; new place loaded {loaded_new}/20",
+        stats.tiles_cancelled
+    );
+    assert_eq!(loaded_new, 20);
+    // The reads started before the jump plus at most the two then in flight.
+    assert!(old_reads <= read_before_jump + settings.max_in_flight);
+    assert!(stats.tiles_cancelled as usize >= 20 - old_reads);
+    // Most urgent first: the new place's first reads were its best priorities.
+    let first_new: Vec<u32> = reads
+        .iter()
+        .filter(|k| k.level == 1)
+        .take(2)
+        .map(|k| k.tx)
+        .collect();
+    assert_eq!(first_new, vec![0, 1]);
+}
+
+/// A tile corrupted in place after the file was opened is caught by its checksum: the read
+/// fails with an error naming the tile (retried, reported in the frame's stream state), the
+/// renderer keeps drawing the coarser levels and nothing panics. A file that grows under the
+/// map is caught by the length check before each read.
+#[test]
+fn corrupt_or_changed_pyramid_files_are_reported_not_fatal() {
+    use std::io::{Seek, SeekFrom, Write};
+    let Some((ctx, _guard)) = common::gpu() else {
+        return;
+    };
+    let Terrain::Dem(dem) = Terrain::embedded_earth().unwrap() else {
+        unreachable!()
+    };
+    let dir = std::env::temp_dir().join(format!("globe-stream-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("earth.globepyr");
+    std::fs::copy(dem.pyramid().path(), &path).unwrap();
+    let copy = globe::terrain::DemTerrain::open(&path, dem.radius_m()).unwrap();
+    // Corrupt the finest level's tile under Lake Garda, in place (same length: no SIGBUS).
+    let g = copy.pyramid().grid(0);
+    let (row, col) = g.row_col_of(45.65, 10.65);
+    let t = copy.pyramid().tile_size();
+    let entry = copy
+        .pyramid()
+        .tile_entry(0, col as usize / t, row as usize / t)
+        .unwrap();
+    let mut f = std::fs::OpenOptions::new().write(true).open(&path).unwrap();
+    f.seek(SeekFrom::Start(entry.offset + 100)).unwrap();
+    f.write_all(&[0x55; 64]).unwrap();
+    f.sync_all().unwrap();
+
+    let camera = Scene::by_name("ground")
+        .unwrap()
+        .camera(|lat, lon| dem.height_at_m(lat, lon));
+    let stream = StreamSettings {
+        retries: 1,
+        ..StreamSettings::default()
+    };
+    let mut r = TerrainRenderer::with_streaming(
+        &ctx.device,
+        ClipmapSettings::default(),
+        Terrain::Dem(copy.clone()),
+        COLOR_FORMAT,
+        stream,
+    )
+    .unwrap();
+    let settled = r.settle(ctx, &camera, 160, 90, Duration::from_secs(3));
+    let frame = OffscreenFrame::new(&ctx.device, 160, 90)
+        .render_now(ctx, &mut r, &camera)
+        .unwrap();
+    let s = frame.info.stream.clone().unwrap();
+    eprintln!(
+        "corrupt tile: settled {settled}, failed {}, levels drawn {:?}, waiting {:?}, error: {:?}",
+        s.stream.tiles_failed,
+        frame.info.selection.drawn_levels(),
+        frame.info.selection.waiting(),
+        s.last_error
+    );
+    assert!(!settled);
+    assert!(s.stream.tiles_failed > 0);
+    assert!(
+        s.last_error
+            .as_deref()
+            .unwrap_or("")
+            .contains("checksum mismatch")
+    );
+    assert!(
+        frame.info.selection.any_drawn(),
+        "the coarser levels still show"
+    );
+    assert!(!frame.info.selection.waiting().is_empty());
+
+    // Growth under the map: every read fails with the length check's message.
+    let mut f = std::fs::OpenOptions::new()
+        .append(true)
+        .open(&path)
+        .unwrap();
+    f.write_all(&[0; 4096]).unwrap();
+    let source = globe::stream::MmapTileSource::new(copy.pyramid_arc());
+    let err = source
+        .read(TileKey {
+            level: 0,
+            tx: 0,
+            ty: 0,
+        })
+        .unwrap_err();
+    assert!(err.to_string().contains("grew"), "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

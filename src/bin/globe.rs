@@ -11,6 +11,7 @@ use globe::clipmap::{ClipmapSettings, TransformForm};
 use globe::render::offscreen::{COLOR_FORMAT, OffscreenFrame};
 use globe::render::{GpuContext, TerrainRenderer};
 use globe::scenes::{SCENES, Scene, scene_names};
+use globe::stream::{FaultSettings, StreamSettings};
 use globe::terrain::Terrain;
 
 #[derive(Parser)]
@@ -32,6 +33,9 @@ struct Cli {
 enum Command {
     /// Render a named scene headless (no window, no GPU needed: a software adapter works) to PNG.
     Render(RenderArgs),
+    /// Benchmark a scene or the `flight` path headless: per-frame CPU and GPU time,
+    /// triangles, levels, streaming counters (median/min/max; `--json` for one JSON object).
+    Bench(BenchArgs),
     /// List the named scenes (the viewer's bookmarks).
     Scenes,
 }
@@ -114,6 +118,108 @@ impl DemArgs {
     }
 }
 
+/// How DEM tiles stream from the pyramid file, and faults to inject.
+#[derive(Args, Clone, Debug)]
+struct StreamArgs {
+    /// Latency added to every tile read, in milliseconds (fault injection). `globe bench`
+    /// takes a comma-separated list and runs once per value, in one process.
+    #[arg(
+        long = "tile-latency-ms",
+        value_name = "MS",
+        value_delimiter = ',',
+        default_value = "0"
+    )]
+    tile_latency_ms: Vec<u64>,
+    /// Fraction of tile reads that fail, 0…1 (fault injection; failed reads are retried).
+    #[arg(long = "tile-fail-rate", value_name = "F", default_value_t = 0.0)]
+    tile_fail_rate: f64,
+    /// Budget of the decoded-tile cache in MiB.
+    #[arg(long = "cache-mb", value_name = "MIB", default_value_t = globe::stream::DEFAULT_CACHE_BYTES >> 20)]
+    cache_mb: u64,
+    /// Tiles the GPU tile cache holds (256² × 2 bytes each).
+    #[arg(long = "gpu-tiles", value_name = "N", default_value_t = StreamSettings::default().gpu_tiles)]
+    gpu_tiles: u32,
+    /// Tiles uploaded to the GPU per frame at most.
+    #[arg(long = "uploads-per-frame", value_name = "N", default_value_t = StreamSettings::default().uploads_per_frame)]
+    uploads_per_frame: u32,
+    /// Tile reads in flight at most.
+    #[arg(long = "max-in-flight", value_name = "N", default_value_t = StreamSettings::default().max_in_flight)]
+    max_in_flight: usize,
+}
+
+impl StreamArgs {
+    /// The settings with the `i`-th latency of the list.
+    fn settings_with_latency(&self, latency_ms: u64) -> anyhow::Result<StreamSettings> {
+        if !(0.0..=1.0).contains(&self.tile_fail_rate) {
+            bail!(
+                "--tile-fail-rate must be between 0 and 1 (got {})",
+                self.tile_fail_rate
+            );
+        }
+        if self.tile_fail_rate >= 1.0 {
+            bail!("--tile-fail-rate 1 would fail every read: no tile could ever load");
+        }
+        if self.gpu_tiles == 0 || self.uploads_per_frame == 0 || self.max_in_flight == 0 {
+            bail!("--gpu-tiles, --uploads-per-frame and --max-in-flight must be at least 1");
+        }
+        Ok(StreamSettings {
+            cache_bytes: self.cache_mb << 20,
+            gpu_tiles: self.gpu_tiles,
+            uploads_per_frame: self.uploads_per_frame,
+            max_in_flight: self.max_in_flight,
+            faults: FaultSettings {
+                latency_ms,
+                fail_rate: self.tile_fail_rate,
+                seed: 0x5EED,
+            },
+            ..StreamSettings::default()
+        })
+    }
+
+    /// The settings, for commands that take one latency.
+    fn settings(&self) -> anyhow::Result<StreamSettings> {
+        match self.tile_latency_ms.as_slice() {
+            [one] => self.settings_with_latency(*one),
+            _ => bail!("--tile-latency-ms takes one value here (a list only with `globe bench`)"),
+        }
+    }
+}
+
+#[derive(Args)]
+struct BenchArgs {
+    /// Scene to benchmark (see `globe scenes`), or `flight`: the path from space down to the
+    /// ground, played over --frames frames from a cold start.
+    #[arg(long, default_value = "aircraft")]
+    scene: String,
+    /// Measured frames.
+    #[arg(long, default_value_t = 100)]
+    frames: usize,
+    /// Frames rendered before measuring (named scenes only; the flight starts cold).
+    #[arg(long, default_value_t = 10)]
+    warmup: usize,
+    /// Start frames at most this often, as a viewer would (streaming gets real time); 0
+    /// renders back to back. Default: 60 for `flight`, 0 for a scene.
+    #[arg(long)]
+    fps: Option<f64>,
+    #[arg(long, default_value_t = 1280)]
+    width: u32,
+    #[arg(long, default_value_t = 720)]
+    height: u32,
+    /// Print one JSON object per run on stdout (one line each) instead of a summary.
+    #[arg(long)]
+    json: bool,
+    /// Also write every frame's figures to this CSV file (with several latencies, the
+    /// latency is added to the name: FILE-50ms.csv).
+    #[arg(long, value_name = "FILE")]
+    csv: Option<PathBuf>,
+    #[command(flatten)]
+    mesh: MeshArgs,
+    #[command(flatten)]
+    dem: DemArgs,
+    #[command(flatten)]
+    stream: StreamArgs,
+}
+
 #[derive(Args)]
 struct ViewerArgs {
     /// Bookmark to open the viewer at (see `globe scenes`).
@@ -126,6 +232,8 @@ struct ViewerArgs {
     mesh: MeshArgs,
     #[command(flatten)]
     dem: DemArgs,
+    #[command(flatten)]
+    stream: StreamArgs,
 }
 
 #[derive(Args)]
@@ -145,10 +253,15 @@ struct RenderArgs {
     /// Debug overlay to draw.
     #[arg(long)]
     overlay: Option<Overlay>,
+    /// Render with whatever tiles have arrived instead of waiting for streaming to settle.
+    #[arg(long = "no-wait")]
+    no_wait: bool,
     #[command(flatten)]
     mesh: MeshArgs,
     #[command(flatten)]
     dem: DemArgs,
+    #[command(flatten)]
+    stream: StreamArgs,
 }
 
 fn main() -> ExitCode {
@@ -172,6 +285,7 @@ fn run() -> anyhow::Result<ExitCode> {
             Ok(ExitCode::SUCCESS)
         }
         Some(Command::Render(args)) => render(&args),
+        Some(Command::Bench(args)) => bench(&args),
         None => viewer(&cli.viewer),
     }
 }
@@ -220,11 +334,17 @@ fn render(args: &RenderArgs) -> anyhow::Result<ExitCode> {
     eprintln!("adapter: {}", ctx.adapter_description());
     let terrain = args.dem.open()?;
     eprintln!("terrain: {}", terrain.describe());
-    let mut renderer = TerrainRenderer::new(&ctx.device, settings, terrain, COLOR_FORMAT)?;
+    let stream = args.stream.settings()?;
+    let mut renderer =
+        TerrainRenderer::with_streaming(&ctx.device, settings, terrain, COLOR_FORMAT, stream)?;
     renderer.overlays.levels = args.overlay == Some(Overlay::Levels);
     let camera = scene.camera(|lat, lon| renderer.terrain_height_m(lat, lon));
     let target = OffscreenFrame::new(&ctx.device, args.width, args.height);
-    let frame = target.render(&ctx, &mut renderer, &camera)?;
+    let frame = if args.no_wait {
+        target.render_now(&ctx, &mut renderer, &camera)?
+    } else {
+        target.render(&ctx, &mut renderer, &camera)?
+    };
     frame
         .save_png(&args.out)
         .with_context(|| format!("cannot write {}", args.out.display()))?;
@@ -275,6 +395,7 @@ fn viewer(args: &ViewerArgs) -> anyhow::Result<ExitCode> {
         settings: args.mesh.settings()?,
         overlay_levels: args.overlay == Some(Overlay::Levels),
         terrain: args.dem.open()?,
+        stream: args.stream.settings()?,
     };
     match globe::ui::run(options) {
         Ok(()) => Ok(ExitCode::SUCCESS),
@@ -283,5 +404,127 @@ fn viewer(args: &ViewerArgs) -> anyhow::Result<ExitCode> {
             Ok(ExitCode::from(2))
         }
         Err(e) => Err(e.into()),
+    }
+}
+
+fn bench(args: &BenchArgs) -> anyhow::Result<ExitCode> {
+    if args.scene != globe::scenes::flight::NAME {
+        find_scene(&args.scene)?;
+    }
+    if args.frames == 0 {
+        bail!("--frames must be at least 1");
+    }
+    let settings = args.mesh.settings()?;
+    let ctx = GpuContext::headless().context("cannot benchmark without a graphics adapter")?;
+    let adapter = ctx.adapter_description();
+    eprintln!("adapter: {adapter}");
+    let terrain = args.dem.open()?;
+    eprintln!("terrain: {}", terrain.describe());
+    let mut runs = Vec::new();
+    for &latency in &args.stream.tile_latency_ms {
+        let options = globe::bench::BenchOptions {
+            scene: args.scene.clone(),
+            frames: args.frames,
+            warmup: args.warmup,
+            width: args.width,
+            height: args.height,
+            settings: settings.clone(),
+            stream: args.stream.settings_with_latency(latency)?,
+            frame_interval: {
+                let default = if args.scene == globe::scenes::flight::NAME {
+                    60.0
+                } else {
+                    0.0
+                };
+                let fps = args.fps.unwrap_or(default);
+                if !(fps >= 0.0 && fps.is_finite()) {
+                    bail!("--fps must be 0 or more (got {fps})");
+                }
+                (fps > 0.0).then(|| std::time::Duration::from_secs_f64(1.0 / fps))
+            },
+        };
+        let run = globe::bench::run(&ctx, &terrain, &options, |done, total| {
+            if done % 10 == 0 || done == total {
+                eprint!(
+                    "\r{} (latency {latency} ms): frame {done}/{total}",
+                    args.scene
+                );
+            }
+        })?;
+        eprintln!();
+        if let Some(path) = &args.csv {
+            let path = if args.stream.tile_latency_ms.len() > 1 {
+                let stem = path.file_stem().unwrap_or_default().to_string_lossy();
+                path.with_file_name(format!("{stem}-{latency}ms.csv"))
+            } else {
+                path.clone()
+            };
+            std::fs::write(&path, run.frames_csv())
+                .with_context(|| format!("cannot write {}", path.display()))?;
+        }
+        if args.json {
+            println!("{}", run.to_json(&[]));
+        } else {
+            print_bench(&run);
+        }
+        runs.push(run);
+    }
+    if runs.len() > 1 {
+        let base = runs[0].cpu_ms().map(|s| s.0).unwrap_or(f64::NAN);
+        eprintln!("median CPU ms per frame against the first latency (same process):");
+        for r in &runs {
+            let cpu = r.cpu_ms().map(|s| s.0).unwrap_or(f64::NAN);
+            eprintln!(
+                "  latency {:>5} ms: {cpu:8.3} ms  ratio {:.3}",
+                r.options.stream.faults.latency_ms,
+                cpu / base
+            );
+        }
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+fn print_bench(run: &globe::bench::BenchRun) {
+    let o = &run.options;
+    println!(
+        "{} {}×{}, {} frames, latency {} ms, fail rate {}",
+        o.scene,
+        o.width,
+        o.height,
+        run.frames.len(),
+        o.stream.faults.latency_ms,
+        o.stream.faults.fail_rate
+    );
+    if let Some((m, lo, hi)) = run.cpu_ms() {
+        println!("  CPU ms/frame   median {m:.3}  min {lo:.3}  max {hi:.3}");
+    }
+    match run.gpu_ms() {
+        Some((m, lo, hi)) => {
+            println!("  GPU ms (terrain pass) median {m:.3}  min {lo:.3}  max {hi:.3}")
+        }
+        None => println!("  GPU ms: the adapter has no timestamp queries"),
+    }
+    if let Some(s) = run.last_stream() {
+        println!(
+            "  tiles requested {} loaded {} cancelled {} failed {} (retries {})",
+            s.stream.tiles_requested,
+            s.stream.tiles_loaded,
+            s.stream.tiles_cancelled,
+            s.stream.tiles_failed,
+            s.stream.retries
+        );
+        println!(
+            "  cache max {:.1} MiB of {:.0} MiB; GPU uploads {:.1} MiB",
+            run.cache_bytes_max() as f64 / 1048576.0,
+            o.stream.cache_bytes as f64 / 1048576.0,
+            s.gpu_bytes_uploaded as f64 / 1048576.0
+        );
+    }
+    if let (Some(t), Some(px)) = (run.settle_s, run.final_vs_loaded_px) {
+        println!(
+            "  settled {} s after the last frame ({}); last frame vs. everything loaded: {px} px differ",
+            format_args!("{t:.2}"),
+            if run.settled { "complete" } else { "TIMED OUT" }
+        );
     }
 }

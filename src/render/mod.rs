@@ -11,6 +11,7 @@ pub mod offscreen;
 pub mod shader;
 pub mod terrain;
 pub mod tiles;
+pub mod timing;
 pub mod upload;
 
 pub use context::GpuContext;

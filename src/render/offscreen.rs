@@ -115,6 +115,7 @@ impl OffscreenFrame {
             &color_view,
             &depth_view,
             wgpu::StoreOp::Store,
+            None,
         );
         let color_buf = ReadbackBuffer::new(&ctx.device, self.width, self.height, 4);
         let depth_buf = ReadbackBuffer::new(&ctx.device, self.width, self.height, 4);
@@ -133,6 +134,62 @@ impl OffscreenFrame {
             rgba,
             depth,
             info,
+        })
+    }
+}
+
+/// One frame of a benchmark: no readback.
+#[derive(Clone, Debug)]
+pub struct TimedFrame {
+    pub info: FrameInfo,
+    /// CPU time to decide, encode and submit the frame (streaming bookkeeping, uploads and
+    /// fills included; the GPU's work is not waited for).
+    pub cpu_ms: f64,
+    /// Wall time until the GPU finished it.
+    pub frame_ms: f64,
+    /// The terrain pass on the GPU, from timestamp queries (None without them).
+    pub gpu_ms: Option<f64>,
+}
+
+impl OffscreenFrame {
+    /// Renders `camera` with whatever data has arrived, waits for the GPU, and times it.
+    pub fn draw_timed(
+        &self,
+        ctx: &GpuContext,
+        renderer: &mut TerrainRenderer,
+        camera: &Camera,
+        timer: Option<&super::timing::GpuTimer>,
+    ) -> Result<TimedFrame, RenderError> {
+        let started = std::time::Instant::now();
+        let mut encoder = ctx.device.create_command_encoder(&Default::default());
+        let info = renderer.prepare(&ctx.queue, &mut encoder, camera, self.width, self.height);
+        let color_view = self.color.create_view(&Default::default());
+        let depth_view = self.depth.create_view(&Default::default());
+        renderer.encode_pass(
+            &mut encoder,
+            &info,
+            &color_view,
+            &depth_view,
+            wgpu::StoreOp::Discard,
+            timer.map(|t| t.pass_writes()),
+        );
+        if let Some(t) = timer {
+            t.resolve(&mut encoder);
+        }
+        ctx.queue.submit([encoder.finish()]);
+        let cpu_ms = started.elapsed().as_secs_f64() * 1e3;
+        let gpu_ms = match timer {
+            Some(t) => Some(t.read_ms(ctx)?),
+            None => {
+                ctx.wait_idle()?;
+                None
+            }
+        };
+        Ok(TimedFrame {
+            info,
+            cpu_ms,
+            frame_ms: started.elapsed().as_secs_f64() * 1e3,
+            gpu_ms,
         })
     }
 }

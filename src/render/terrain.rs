@@ -647,7 +647,8 @@ impl TerrainRenderer {
     }
 
     /// Records a whole terrain pass: colour cleared to the sky, depth cleared to 0 (reversed-Z),
-    /// then the draw calls of `info`. `depth_store` keeps the depth for readback or discards it.
+    /// then the draw calls of `info`. `depth_store` keeps the depth for readback or discards it;
+    /// `timestamps` times the pass on the GPU.
     pub fn encode_pass(
         &self,
         encoder: &mut wgpu::CommandEncoder,
@@ -655,6 +656,7 @@ impl TerrainRenderer {
         color: &wgpu::TextureView,
         depth: &wgpu::TextureView,
         depth_store: wgpu::StoreOp,
+        timestamps: Option<wgpu::RenderPassTimestampWrites<'_>>,
     ) {
         let [r, g, b] = info.sky_linear;
         let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
@@ -676,7 +678,7 @@ impl TerrainRenderer {
                 }),
                 stencil_ops: None,
             }),
-            timestamp_writes: None,
+            timestamp_writes: timestamps,
             occlusion_query_set: None,
             multiview_mask: None,
         });

@@ -32,6 +32,7 @@ pub mod streamer;
 
 pub use cache::TileCache;
 pub use source::{FaultSettings, FaultyTileSource, MmapTileSource, TileData, TileSource};
+pub use streamer::raw_read_rate;
 pub use streamer::{Completion, StreamStats, TileStreamer};
 
 /// One tile of one pyramid level.

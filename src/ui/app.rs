@@ -114,6 +114,7 @@ impl Gpu {
         settings: crate::clipmap::ClipmapSettings,
         planet: Terrain,
         overlay_levels: bool,
+        stream: crate::stream::StreamSettings,
     ) -> Result<Self, UiError> {
         let attributes = Window::default_attributes()
             .with_title("globe")
@@ -138,7 +139,8 @@ impl Gpu {
         surface.configure(&ctx.device, &config);
         let depth = depth_view(&ctx.device, config.width, config.height);
 
-        let mut terrain = TerrainRenderer::new(&ctx.device, settings, planet, config.format)?;
+        let mut terrain =
+            TerrainRenderer::with_streaming(&ctx.device, settings, planet, config.format, stream)?;
         terrain.overlays.levels = overlay_levels;
 
         let max_texture_side = ctx.device.limits().max_texture_dimension_2d as usize;
@@ -205,7 +207,16 @@ impl Gpu {
         let device = &self.ctx.device;
         let oom = device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
         let validation = device.push_error_scope(wgpu::ErrorFilter::Validation);
-        let built = TerrainRenderer::new(device, settings, self.terrain.terrain.clone(), format);
+        let built = TerrainRenderer::with_streaming(
+            device,
+            settings,
+            self.terrain.terrain.clone(),
+            format,
+            self.terrain
+                .feed()
+                .map(|f| *f.settings())
+                .unwrap_or_default(),
+        );
         let validation = pollster::block_on(validation.pop());
         let oom = pollster::block_on(oom.pop());
         let mut renderer = built.map_err(|e| e.to_string())?;
@@ -466,6 +477,7 @@ impl App {
             &view,
             &gpu.depth,
             wgpu::StoreOp::Discard,
+            None,
         );
         {
             let pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
@@ -719,6 +731,7 @@ impl ApplicationHandler for App {
             self.options.settings.clone(),
             self.planet.clone(),
             self.options.overlay_levels,
+            self.options.stream,
         ) {
             Ok(gpu) => {
                 gpu.window.request_redraw();

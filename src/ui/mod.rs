@@ -41,6 +41,8 @@ pub struct ViewerOptions {
     pub overlay_levels: bool,
     /// The terrain to show (the embedded Earth, a DEM pyramid, or the analytic test planet).
     pub terrain: crate::terrain::Terrain,
+    /// How DEM tiles stream (cache sizes, upload budget, injected faults).
+    pub stream: crate::stream::StreamSettings,
 }
 
 impl Default for ViewerOptions {
@@ -50,6 +52,7 @@ impl Default for ViewerOptions {
             settings: ClipmapSettings::default(),
             overlay_levels: false,
             terrain: crate::terrain::Terrain::analytic_earth(),
+            stream: crate::stream::StreamSettings::default(),
         }
     }
 }
