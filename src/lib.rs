@@ -11,13 +11,15 @@
 //! | [`clipmap`] | ring mesh, level texture windows, level and sector selection |
 //! | [`render`] | wgpu plumbing: context, terrain pass, compute fill, offscreen target |
 //! | [`scenes`] | the named views of DESIGN.md |
-//! | [`bench`] | `globe bench`: timed frames of a scene or the flight path |
+//! | [`measure`] | f64 reference ray caster and the per-pixel screen-space error (error-bounded paper, eq. 2–3) |
+//! | [`bench`] | `globe bench`: timed frames of a scene or the flight path, with their error |
 //! | [`ui`] | the window: winit + egui |
 
 pub mod bench;
 pub mod clipmap;
 pub mod dem;
 pub mod geo;
+pub mod measure;
 pub mod render;
 pub mod scenes;
 pub mod stream;

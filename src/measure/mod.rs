@@ -1,0 +1,49 @@
+//! Measuring the renderer honestly (DESIGN.md "Measuring"): an f64 reference ray caster over
+//! the terrain function and the per-pixel screen-space error of a rendered frame.
+//!
+//! Source: `error-bounded-projective-grid.md` §4, eq. 2 (object-space error δ) and eq. 3
+//! (screen-space error ρ = λ·δ/‖p − e‖, λ in pixels per radian). The paper bounds δ a priori
+//! from its min/max pyramids; here δ is measured a posteriori, per pixel, against the terrain
+//! function itself, and the same pyramids accelerate the reference ray caster instead.
+//!
+//! | file | concern |
+//! | --- | --- |
+//! | [`reference`] | [`HeightField`] (the terrain function and its local bounds), the ray caster giving each pixel's true hit or sky |
+//! | [`metric`] | per-pixel δ and ρ from a rendered depth buffer, coverage against the reference, statistics, heat map |
+//!
+//! | frame | convention (as [`crate::geo`]) |
+//! | --- | --- |
+//! | view | planet centre at the origin, eye at (0, 0, R + altitude), +z̃ up at the viewer |
+//! | pixel | centre of pixel (x, y) at NDC (2(x + ½)/W − 1, 1 − 2(y + ½)/H), row 0 at the top |
+//! | distance | metres along the unit ray from the eye ([`crate::geo::pixel_ray_view`]) |
+
+pub mod metric;
+pub mod reference;
+
+pub use metric::{
+    Coverage, DEFAULT_THRESHOLD_PX, ErrorStats, PixelError, heat_rgb, measure_frame, pixel_error,
+    rho_image, write_heat_map_png,
+};
+pub use reference::{
+    ConstantHeight, HeightField, LocalBounds, PixelSet, RayCastOptions, RayCaster, RayHit,
+    ReferenceImage, ReferencePixel,
+};
+
+/// Errors of the measurements.
+#[derive(Debug, thiserror::Error)]
+pub enum MeasureError {
+    /// A reference or ρ image of another size than the frame it is compared with.
+    #[error("{what} is {actual_w}×{actual_h}, the frame {expected_w}×{expected_h}")]
+    SizeMismatch {
+        what: &'static str,
+        actual_w: u32,
+        actual_h: u32,
+        expected_w: u32,
+        expected_h: u32,
+    },
+    #[error("{path}: {source}")]
+    Image {
+        path: std::path::PathBuf,
+        source: image::ImageError,
+    },
+}

@@ -1,0 +1,745 @@
+//! The reference: an f64 CPU ray caster over the terrain function, giving each pixel its true
+//! hit (distance along the ray and surface point) or sky, for the same camera, viewport, pixel
+//! centres and projection as the renderer (DESIGN.md "Measuring": coverage mismatches are
+//! counted against it).
+//!
+//! The terrain is a [`HeightField`]: its height at a unit vector (for [`Terrain`]: the DEM's
+//! finest level, bilinear, or the analytic planet, exactly) and conservative bounds over a cap
+//! around a point: min/max heights (the DEM's min/max pyramid planes, the error-bounded paper's
+//! h_min/h_max of eq. 2; the analytic planet's Lipschitz spread) and a bound on the slope.
+//!
+//! # March
+//!
+//! A ray from the eye `e` along the unit direction `d` (view space), with clearance
+//! f(t) = |e + t·d| − R − h(u(t)) (positive above the terrain):
+//!
+//! 1. Skip to the shell R + h_max of the whole terrain (nothing above it); beyond the shell's far
+//!    side the ray is sky, and where it reaches R + h_min it is certainly below the terrain.
+//! 2. **Cap steps** (proven safe): with bounds [lo, hi] over a cap of angle α around the current
+//!    point, the ray is advanced to where it leaves the cap or descends to R + hi, whichever
+//!    comes first. The cap doubles after a step that left it and shrinks by 4 when the ray runs
+//!    into its max (never below the DEM's finest pixel, where the bounds stop tightening).
+//! 3. **Lipschitz steps** (proven safe): below a cap's max, with slope bound L in the cap, the
+//!    clearance falls by at most max(0, −d·u) + L·R/r_min per metre of ray (u: the vertical
+//!    where the step starts; along a line d·u only grows. r_min: the shell's floor), so a step
+//!    of f over that rate that stays in the cap cannot cross the terrain.
+//! 4. **Minimum step** (not proven): when the proven step is shorter than
+//!    s_min = `min_step_px`·t/λ_ray (λ_ray: pixels per radian along that ray, the largest
+//!    value across the pixel), the ray advances by s_min and checks the sign of f there.
+//! 5. The first sign change is refined (regula falsi, Illinois variant, then bisection) until
+//!    bracketed to `refine_px`·t/λ_ray (default 10⁻⁴ px), and the midpoint reported.
+//!
+//! # Guarantee
+//!
+//! Every step except the minimum step is proven not to cross the terrain, so the reported hit
+//! is the first crossing of the ray, except that a crossing may be missed where the ray dips
+//! below the terrain and comes out again within one minimum step: over an interval of the ray
+//! shorter than s_min (a quarter of a pixel's footprint by default). Where the slope bound L
+//! holds, the clearance changes by at most 1 + L·R/r_min ≈ 1 + L per metre, so such a sliver
+//! rises at most (1 + L)·s_min/2 above the ray: (1 + L)·`min_step_px`/2 pixels. That is 0.36 px
+//! for the analytic planet (L ≈ 1.85); for the embedded Earth L comes from the min/max planes
+//! around the point: 0.16 px over the Alps (L ≈ 0.25), 0.2 px at the steepest 10′ relief
+//! (Everest 0.4, the Mariana trench 0.58), but within a few pixels of a pole, where the
+//! lat/lon cells narrow to metres, L ≈ 50 and the height bound is several pixels. Where L is
+//! unknown (+∞: a regional DEM's edge, a grid row on a pole) only the length bound holds.
+//!
+//! With the eye inside the terrain (f(0) ≤ 0) every ray hits at distance 0.
+
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+use glam::{DMat3, DVec3};
+
+use crate::dem::pyramid::Region;
+use crate::geo::camera::{Camera, pixel_ray_view};
+use crate::geo::sphere;
+use crate::terrain::{AnalyticPlanet, DemTerrain, Terrain};
+
+/// Largest cap the march asks bounds for (≈ 320 km on Earth): larger caps over real relief
+/// give bounds as loose as the global range, which the shell already uses.
+const CAP_MAX_RAD: f64 = 0.05;
+/// The first cap of every ray (≈ 40 km on Earth); the march adapts it from there.
+const CAP_START_RAD: f64 = CAP_MAX_RAD / 8.0;
+/// Margin of the terrain shell beyond the global height range, metres: the shell's spheres
+/// are computed in floating point, and 1 m keeps them strictly outside the terrain.
+const SHELL_MARGIN_M: f64 = 1.0;
+/// Refinement steps at most (2⁻²⁰⁰ of the bracket is far below f64 resolution).
+const BISECTION_STEPS_MAX: usize = 200;
+/// Regula falsi steps before plain bisection takes over (it needs 4–8 on smooth terrain).
+const ILLINOIS_STEPS_MAX: usize = 40;
+
+/// Conservative bounds of a height field over a cap.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LocalBounds {
+    pub min_m: f64,
+    pub max_m: f64,
+    /// Upper bound of |∇h| in the cap, metres per metre along the sphere of radius R;
+    /// `f64::INFINITY` where none is known.
+    pub slope_max: f64,
+}
+
+/// A terrain function over a sphere, as the ray caster and the metric evaluate it (f64).
+pub trait HeightField: Sync {
+    /// Radius R of the sphere the heights are measured from, metres.
+    fn radius_m(&self) -> f64;
+    /// Height above the sphere at world unit vector `u_world`, metres.
+    fn height_m(&self, u_world: DVec3) -> f64;
+    /// Lowest and highest height anywhere.
+    fn height_range_m(&self) -> (f64, f64);
+    /// Bounds over every point within `angle_rad` (great-circle angle) of `u_world`.
+    fn local_bounds(&self, u_world: DVec3, angle_rad: f64) -> LocalBounds;
+    /// Cap angle below which [`HeightField::local_bounds`] gets no tighter (a DEM's finest
+    /// pixel); 0 when it keeps tightening.
+    fn finest_bound_angle_rad(&self) -> f64;
+}
+
+impl HeightField for Terrain {
+    fn radius_m(&self) -> f64 {
+        Terrain::radius_m(self)
+    }
+
+    fn height_m(&self, u_world: DVec3) -> f64 {
+        Terrain::height_m(self, u_world)
+    }
+
+    fn height_range_m(&self) -> (f64, f64) {
+        Terrain::height_range_m(self)
+    }
+
+    fn local_bounds(&self, u_world: DVec3, angle_rad: f64) -> LocalBounds {
+        match self {
+            Terrain::Analytic(p) => analytic_bounds(p, u_world, angle_rad),
+            Terrain::Dem(d) => dem_bounds(d, u_world, angle_rad),
+        }
+    }
+
+    fn finest_bound_angle_rad(&self) -> f64 {
+        match self {
+            Terrain::Analytic(_) => 0.0,
+            Terrain::Dem(d) => d.pyramid().grid(0).dlat_deg.to_radians(),
+        }
+    }
+}
+
+/// The analytic planet's bounds (its own Lipschitz spread) and slope: each scale's product of
+/// sines has a gradient of at most 2·A·ω per radian of arc, i.e. 2·A·ω/R per metre.
+fn analytic_bounds(p: &AnalyticPlanet, u_world: DVec3, angle_rad: f64) -> LocalBounds {
+    let (min_m, max_m) = p.height_bounds_near_m(u_world, angle_rad);
+    let slope_max = p
+        .scales
+        .iter()
+        .map(|s| 2.0 * s.amplitude_m * s.omega / p.radius_m)
+        .sum();
+    LocalBounds {
+        min_m,
+        max_m,
+        slope_max,
+    }
+}
+
+/// A DEM's bounds from the pyramid's min/max planes, over the cap widened by one finest-cell
+/// diagonal so that they also hold at every corner of every finest cell touching the cap.
+///
+/// The terrain is bilinear in (lat, lon) between pixel centres, so within a cell each partial
+/// derivative is a convex combination of corner differences, each at most max − min: the
+/// slope is at most (max − min)/R · hypot(1/Δlat, 1/(cos lat·Δlon)) with the highest latitude
+/// of the cells. Between the outermost row and a pole the terrain blends linearly over the gap
+/// to the row's mean (`PoleCap`): there Δlat becomes the gap, and the cap is widened to
+/// reach the pole so that the bounds hold for that mean too.
+fn dem_bounds(d: &DemTerrain, u_world: DVec3, angle_rad: f64) -> LocalBounds {
+    let pyramid = d.pyramid();
+    let g = pyramid.grid(0);
+    let (phi, theta, _) = sphere::phi_theta_height_from_ecef_m(u_world, 1.0);
+    let (lat_deg, lon_deg) = sphere::lat_lon_deg_from_phi_theta(phi, theta);
+    let diagonal_deg = g.dlat_deg.hypot(g.dlon_deg);
+    let mut radius_deg = angle_rad.to_degrees() + diagonal_deg;
+    let outer_row_lat_deg = g
+        .lat0_deg
+        .abs()
+        .max(g.lat_of_row((g.rows - 1) as f64).abs());
+    let pole_gap_deg = 90.0 - outer_row_lat_deg;
+    let has_pole_caps = pyramid.wraps() && pole_gap_deg > 0.0 && pole_gap_deg <= g.dlat_deg;
+    let reaches_past_rows = lat_deg.abs() + radius_deg > outer_row_lat_deg;
+    if has_pole_caps && reaches_past_rows {
+        radius_deg = radius_deg.max(90.0 - lat_deg.abs() + diagonal_deg);
+    }
+    let level = pyramid.level_for_spacing(radius_deg / 4.0);
+    let region = Region::Cap {
+        lat_deg,
+        lon_deg,
+        radius_rad: radius_deg.to_radians(),
+    };
+    let Some(b) = pyramid.min_max_in(region, level) else {
+        // Wholly outside the data: sea level, flat.
+        return LocalBounds {
+            min_m: 0.0,
+            max_m: 0.0,
+            slope_max: 0.0,
+        };
+    };
+    if !b.complete {
+        // Partly outside: the data's edge steps to sea level, no slope bound.
+        return LocalBounds {
+            min_m: b.min_m.min(0.0),
+            max_m: b.max_m.max(0.0),
+            slope_max: f64::INFINITY,
+        };
+    }
+    let (dlat_deg, top_lat_deg) = if reaches_past_rows {
+        if !has_pole_caps {
+            // A row of pixel centres on a pole (or a grid ending short of it): no bound.
+            return LocalBounds {
+                min_m: b.min_m,
+                max_m: b.max_m,
+                slope_max: f64::INFINITY,
+            };
+        }
+        // In the blend zone (1 − t)/cos lat ≤ 1/cos(row lat) (to 1e-6 for a gap ≤ 1°).
+        (g.dlat_deg.min(pole_gap_deg), outer_row_lat_deg)
+    } else {
+        (g.dlat_deg, lat_deg.abs() + radius_deg)
+    };
+    let cos_top = top_lat_deg.to_radians().cos();
+    let r = d.radius_m();
+    let slope_max = 1.000_01 * (b.max_m - b.min_m) / r
+        * (1.0 / dlat_deg.to_radians()).hypot(1.0 / (cos_top * g.dlon_deg.to_radians()));
+    LocalBounds {
+        min_m: b.min_m,
+        max_m: b.max_m,
+        slope_max,
+    }
+}
+
+/// A sphere of constant height: the geometric core's test case (the first hit is the
+/// closed-form ray–sphere intersection).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ConstantHeight {
+    pub radius_m: f64,
+    pub height_m: f64,
+}
+
+impl HeightField for ConstantHeight {
+    fn radius_m(&self) -> f64 {
+        self.radius_m
+    }
+
+    fn height_m(&self, _u_world: DVec3) -> f64 {
+        self.height_m
+    }
+
+    fn height_range_m(&self) -> (f64, f64) {
+        (self.height_m, self.height_m)
+    }
+
+    fn local_bounds(&self, _u_world: DVec3, _angle_rad: f64) -> LocalBounds {
+        LocalBounds {
+            min_m: self.height_m,
+            max_m: self.height_m,
+            slope_max: 0.0,
+        }
+    }
+
+    fn finest_bound_angle_rad(&self) -> f64 {
+        0.0
+    }
+}
+
+/// Accuracy and threads of the ray caster.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RayCastOptions {
+    /// The unproven step s_min, in pixels at the step's distance (see the module's guarantee).
+    pub min_step_px: f64,
+    /// Refinement stops once the crossing is bracketed to this many pixels.
+    pub refine_px: f64,
+    /// Worker threads for [`RayCaster::cast`]; 0: one per available core.
+    pub threads: usize,
+}
+
+impl Default for RayCastOptions {
+    fn default() -> Self {
+        Self {
+            min_step_px: 0.25,
+            refine_px: 1e-4,
+            threads: 0,
+        }
+    }
+}
+
+/// What one ray sees.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum RayHit {
+    Sky,
+    Terrain {
+        /// Metres from the eye along the unit ray.
+        distance_m: f64,
+        /// The surface point in view space (planet centre at the origin).
+        point_view_m: DVec3,
+    },
+}
+
+impl RayHit {
+    pub fn distance_m(&self) -> Option<f64> {
+        match self {
+            RayHit::Sky => None,
+            RayHit::Terrain { distance_m, .. } => Some(*distance_m),
+        }
+    }
+}
+
+/// One pixel of a [`ReferenceImage`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum ReferencePixel {
+    /// Not in the [`PixelSet`] that was cast.
+    NotCast,
+    Sky,
+    Terrain {
+        /// Metres from the eye along the pixel's unit ray.
+        distance_m: f64,
+    },
+}
+
+/// Which pixels to cast (a subset keeps tests and large frames fast).
+#[derive(Clone, Debug, PartialEq)]
+pub enum PixelSet {
+    All,
+    /// Pixels whose x and y are both multiples of k (k ≥ 1).
+    Every(u32),
+    /// These pixels (each must lie inside the viewport).
+    List(Vec<(u32, u32)>),
+}
+
+impl PixelSet {
+    /// The pixels of a `width` × `height` viewport, row by row.
+    pub fn pixels(&self, width: u32, height: u32) -> Vec<(u32, u32)> {
+        match self {
+            PixelSet::All => PixelSet::Every(1).pixels(width, height),
+            PixelSet::Every(k) => {
+                let k = (*k).max(1) as usize;
+                (0..height)
+                    .step_by(k)
+                    .flat_map(|y| (0..width).step_by(k).map(move |x| (x, y)))
+                    .collect()
+            }
+            PixelSet::List(list) => list.clone(),
+        }
+    }
+}
+
+/// The reference of a `width` × `height` viewport, row-major from the top-left.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ReferenceImage {
+    pub width: u32,
+    pub height: u32,
+    pub pixels: Vec<ReferencePixel>,
+}
+
+impl ReferenceImage {
+    pub fn pixel(&self, x: u32, y: u32) -> ReferencePixel {
+        self.pixels[(y * self.width + x) as usize]
+    }
+
+    /// Pixels cast (terrain or sky).
+    pub fn cast_count(&self) -> usize {
+        self.pixels
+            .iter()
+            .filter(|p| **p != ReferencePixel::NotCast)
+            .count()
+    }
+
+    /// Pixels whose ray hits the terrain.
+    pub fn terrain_count(&self) -> usize {
+        self.pixels
+            .iter()
+            .filter(|p| matches!(p, ReferencePixel::Terrain { .. }))
+            .count()
+    }
+}
+
+/// The ray caster for one camera and viewport.
+pub struct RayCaster<'a, H: HeightField + ?Sized> {
+    field: &'a H,
+    camera: Camera,
+    width: u32,
+    height: u32,
+    options: RayCastOptions,
+    eye_view_m: DVec3,
+    /// Rows of camera_from_view (the transpose of the rotation view_from_camera).
+    camera_from_view: DMat3,
+    world_from_view: DMat3,
+    /// Focal length in pixels: pixels per radian at the image centre.
+    focal_px: f64,
+    radius_m: f64,
+    shell_top_m: f64,
+    shell_bottom_m: f64,
+}
+
+impl<'a, H: HeightField + ?Sized> RayCaster<'a, H> {
+    /// A caster for `camera` (altitude above `field`'s sphere) and a `width` × `height`
+    /// viewport, with the default [`RayCastOptions`].
+    pub fn new(field: &'a H, camera: &Camera, width: u32, height: u32) -> Self {
+        let radius_m = field.radius_m();
+        let (lo_m, hi_m) = field.height_range_m();
+        Self {
+            field,
+            camera: *camera,
+            width,
+            height,
+            options: RayCastOptions::default(),
+            eye_view_m: camera.eye_view_at_radius_m(radius_m),
+            camera_from_view: camera.view_from_camera().transpose(),
+            world_from_view: camera.view_frame().world_from_view,
+            focal_px: 0.5 * f64::from(height.max(1)) / (0.5 * camera.fov_y_rad()).tan(),
+            radius_m,
+            shell_top_m: radius_m + hi_m + SHELL_MARGIN_M,
+            shell_bottom_m: (radius_m + lo_m - SHELL_MARGIN_M).max(0.0),
+        }
+    }
+
+    pub fn with_options(mut self, options: RayCastOptions) -> Self {
+        self.options = options;
+        self
+    }
+
+    pub fn eye_view_m(&self) -> DVec3 {
+        self.eye_view_m
+    }
+
+    /// The unit ray through the centre of pixel (x, y), view space (as the renderer's
+    /// projection: [`pixel_ray_view`]).
+    pub fn pixel_ray_view(&self, x: u32, y: u32) -> DVec3 {
+        pixel_ray_view(&self.camera, x, y, self.width, self.height)
+    }
+
+    /// Pixels per radian at direction `d_view`: the focal length over cos² of the angle off
+    /// the axis (the radial pixel pitch there, the finest across the pixel).
+    fn pixels_per_radian_along(&self, d_view: DVec3) -> f64 {
+        let cos_off_axis = -(self.camera_from_view * d_view).z;
+        if cos_off_axis > 0.0 {
+            self.focal_px / (cos_off_axis * cos_off_axis)
+        } else {
+            self.focal_px
+        }
+    }
+
+    pub fn cast_pixel(&self, x: u32, y: u32) -> RayHit {
+        self.cast_ray(self.pixel_ray_view(x, y))
+    }
+
+    /// The first hit along `direction_view` (normalised here) from the eye.
+    pub fn cast_ray(&self, direction_view: DVec3) -> RayHit {
+        let d = direction_view.normalize();
+        let pixels_per_rad = self.pixels_per_radian_along(d);
+        match self.march(d, pixels_per_rad) {
+            Some(distance_m) => RayHit::Terrain {
+                distance_m,
+                point_view_m: self.eye_view_m + distance_m * d,
+            },
+            None => RayHit::Sky,
+        }
+    }
+
+    /// Casts `pixels` on [`RayCastOptions::threads`] threads; results in the same order.
+    pub fn cast_pixels(&self, pixels: &[(u32, u32)]) -> Vec<RayHit> {
+        // A chunk of a row at 1080p: small enough to balance two cores over a horizon band.
+        const CHUNK: usize = 256;
+        let threads = match self.options.threads {
+            0 => std::thread::available_parallelism().map_or(1, |n| n.get()),
+            n => n,
+        };
+        let next = AtomicUsize::new(0);
+        let work = || {
+            let mut done = Vec::new();
+            loop {
+                let chunk = next.fetch_add(1, Ordering::Relaxed);
+                let start = chunk * CHUNK;
+                if start >= pixels.len() {
+                    return done;
+                }
+                let part = &pixels[start..(start + CHUNK).min(pixels.len())];
+                let hits: Vec<RayHit> = part.iter().map(|&(x, y)| self.cast_pixel(x, y)).collect();
+                done.push((chunk, hits));
+            }
+        };
+        let mut chunks: Vec<(usize, Vec<RayHit>)> = std::thread::scope(|s| {
+            let workers: Vec<_> = (0..threads.max(1)).map(|_| s.spawn(work)).collect();
+            workers
+                .into_iter()
+                .flat_map(|w| w.join().unwrap_or_else(|p| std::panic::resume_unwind(p)))
+                .collect()
+        });
+        chunks.sort_by_key(|(chunk, _)| *chunk);
+        chunks.into_iter().flat_map(|(_, hits)| hits).collect()
+    }
+
+    /// The reference image of `set` (pixels outside it are [`ReferencePixel::NotCast`]).
+    ///
+    /// # Panics
+    /// If a listed pixel lies outside the viewport.
+    pub fn cast(&self, set: &PixelSet) -> ReferenceImage {
+        let list = set.pixels(self.width, self.height);
+        if let Some((x, y)) = list
+            .iter()
+            .find(|(x, y)| *x >= self.width || *y >= self.height)
+        {
+            panic!(
+                "pixel ({x}, {y}) outside the {}×{} viewport",
+                self.width, self.height
+            );
+        }
+        let hits = self.cast_pixels(&list);
+        let mut pixels = vec![ReferencePixel::NotCast; self.width as usize * self.height as usize];
+        for (&(x, y), hit) in list.iter().zip(hits) {
+            pixels[(y * self.width + x) as usize] = match hit {
+                RayHit::Sky => ReferencePixel::Sky,
+                RayHit::Terrain { distance_m, .. } => ReferencePixel::Terrain { distance_m },
+            };
+        }
+        ReferenceImage {
+            width: self.width,
+            height: self.height,
+            pixels,
+        }
+    }
+
+    /// Clearance of view-space point `p` above the terrain: |p| − R − h(p/|p|).
+    fn clearance_m(&self, p: DVec3) -> f64 {
+        let r = p.length();
+        r - self.radius_m - self.field.height_m(self.world_from_view * (p / r))
+    }
+
+    /// The distance to the first crossing along the unit ray `d`, or None (sky). See the
+    /// module documentation for the steps and the guarantee.
+    fn march(&self, d: DVec3, pixels_per_rad: f64) -> Option<f64> {
+        let e = self.eye_view_m;
+        if self.clearance_m(e) <= 0.0 {
+            return Some(0.0);
+        }
+        let (t_enter, t_exit) = ray_sphere(e, d, self.shell_top_m)?;
+        if t_exit <= 0.0 {
+            return None;
+        }
+        // Below the shell's floor the ray is under the terrain: a crossing lies before it.
+        let t_floor = ray_sphere(e, d, self.shell_bottom_m)
+            .map(|(near, _)| near)
+            .filter(|&near| near >= 0.0 && near < t_exit);
+        let t_end = t_floor.unwrap_or(t_exit);
+        let step_per_m = self.options.min_step_px / pixels_per_rad;
+        let s_min = |t: f64| (step_per_m * t).max(4.0 * f64::EPSILON * (e.length() + t));
+        let finest_rad = self.field.finest_bound_angle_rad();
+        let ground_per_ray_m = self.radius_m / self.shell_bottom_m;
+
+        let mut t = t_enter.max(0.0);
+        let mut alpha = CAP_START_RAD;
+        let mut cap: Option<Cap> = None;
+        loop {
+            if t >= t_end {
+                return t_floor.map(|_| t_end);
+            }
+            let p = e + t * d;
+            let r = p.length();
+            let u = p / r;
+            let alpha_min = finest_rad.max(s_min(t) / r);
+            let c = match cap {
+                Some(c) if t < c.end_t => c,
+                _ => {
+                    let a = alpha.clamp(alpha_min, CAP_MAX_RAD);
+                    let c = Cap {
+                        alpha_rad: a,
+                        end_t: t + cap_exit_m(u, r, d, a),
+                        bounds: self.field.local_bounds(self.world_from_view * u, a),
+                    };
+                    cap = Some(c);
+                    c
+                }
+            };
+            // Cap step: above the cap's max, to its edge or down to the max.
+            let top_m = self.radius_m + c.bounds.max_m;
+            if r > top_m {
+                let to_top = descent_to_sphere_m(p, r, d, top_m);
+                let t_next = (t + to_top).min(c.end_t).min(t_end);
+                if t_next > t {
+                    let left_cap = c.end_t <= t + to_top;
+                    alpha = if left_cap {
+                        c.alpha_rad * 2.0
+                    } else {
+                        c.alpha_rad / 4.0
+                    };
+                    t = t_next;
+                    cap = None;
+                    continue;
+                }
+            }
+            let f = r - self.radius_m - self.field.height_m(self.world_from_view * u);
+            if f <= 0.0 {
+                return Some(t);
+            }
+            // A cap much wider than a Lipschitz step can reach: try a smaller one first.
+            let alpha_fit = alpha_min.max(2.0 * f / self.shell_bottom_m);
+            if c.alpha_rad > 2.0 * alpha_fit {
+                alpha = (c.alpha_rad / 4.0).max(alpha_fit);
+                cap = None;
+                continue;
+            }
+            // Lipschitz step within the cap, or the minimum step. The clearance falls at most
+            // at −dr/ds + L·R/r_min per metre, and dr/ds only grows along a line (r is convex).
+            let falls_per_m = (-d.dot(u)).max(0.0) + c.bounds.slope_max * ground_per_ray_m;
+            let safe = (f / falls_per_m).min(c.end_t - t);
+            let t_next = (t + safe.max(s_min(t))).min(t_end);
+            let f_next = self.clearance_m(e + t_next * d);
+            if f_next <= 0.0 {
+                return Some(self.refine(d, (t, f), (t_next, f_next), pixels_per_rad));
+            }
+            t = t_next;
+            if t >= c.end_t {
+                alpha = 2.0 * alpha_min.max(2.0 * f_next / self.shell_bottom_m);
+                cap = None;
+            }
+        }
+    }
+
+    /// The crossing in [a, b] (clearance f_a > 0, f_b ≤ 0), bracketed to `refine_px` by the
+    /// Illinois variant of regula falsi (superlinear, both ends converge), falling back to
+    /// bisection should it stall. Returns the bracket's midpoint.
+    fn refine(
+        &self,
+        d: DVec3,
+        (mut a, mut f_a): (f64, f64),
+        (mut b, mut f_b): (f64, f64),
+        pixels_per_rad: f64,
+    ) -> f64 {
+        let e = self.eye_view_m;
+        let mut last_side = 0i8;
+        for step in 0..BISECTION_STEPS_MAX {
+            let tolerance_m = (self.options.refine_px * b / pixels_per_rad)
+                .max(4.0 * f64::EPSILON * (e.length() + b));
+            if b - a <= tolerance_m {
+                break;
+            }
+            let secant = (a * f_b - b * f_a) / (f_b - f_a);
+            let m = if step < ILLINOIS_STEPS_MAX && secant > a && secant < b {
+                secant
+            } else {
+                0.5 * (a + b)
+            };
+            let f_m = self.clearance_m(e + m * d);
+            if f_m > 0.0 {
+                (a, f_a) = (m, f_m);
+                if last_side == 1 {
+                    f_b *= 0.5;
+                }
+                last_side = 1;
+            } else {
+                (b, f_b) = (m, f_m);
+                if last_side == -1 {
+                    f_a *= 0.5;
+                }
+                last_side = -1;
+            }
+        }
+        0.5 * (a + b)
+    }
+}
+
+/// The cap the march holds bounds for: valid for the ray while t < `end_t`.
+#[derive(Clone, Copy, Debug)]
+struct Cap {
+    alpha_rad: f64,
+    end_t: f64,
+    bounds: LocalBounds,
+}
+
+/// Both distances where the line o + t·d (unit d) meets the sphere of `radius_m` about the
+/// origin, nearer first, or None if it misses. Cancellation-free: the discriminant is
+/// (ρ − q)(ρ + q) with q the line's distance from the centre, and the nearer root comes
+/// from the product of the roots.
+fn ray_sphere(o: DVec3, d: DVec3, radius_m: f64) -> Option<(f64, f64)> {
+    let b = o.dot(d);
+    let q = (o - b * d).length();
+    if q > radius_m {
+        return None;
+    }
+    let h = ((radius_m - q) * (radius_m + q)).sqrt();
+    let r = o.length();
+    let c = (r - radius_m) * (r + radius_m);
+    // One root without cancellation (−b and ∓h of the same sign), the other from c.
+    let (one, other) = if b < 0.0 {
+        let far = -b + h;
+        (far, c / far)
+    } else {
+        let near = -b - h;
+        (near, if near != 0.0 { c / near } else { 0.0 })
+    };
+    let (near, far) = (one.min(other), one.max(other));
+    Some((near, far))
+}
+
+/// How far the ray from `p` (|p| = r > ρ) along unit `d` goes before it first reaches the
+/// sphere of radius ρ = `radius_m`; +∞ if never.
+fn descent_to_sphere_m(p: DVec3, r: f64, d: DVec3, radius_m: f64) -> f64 {
+    let b = p.dot(d);
+    if b >= 0.0 {
+        return f64::INFINITY;
+    }
+    let q = (p - b * d).length();
+    if q > radius_m {
+        return f64::INFINITY;
+    }
+    let h = ((radius_m - q) * (radius_m + q)).sqrt();
+    (r - radius_m) * (r + radius_m) / (-b + h)
+}
+
+/// How far the ray from p = r·u along unit `d` goes before it leaves the cap of angle α
+/// around u: the angle it subtends is atan(s·d⊥ / (r + s·d‖)), which grows monotonically.
+fn cap_exit_m(u: DVec3, r: f64, d: DVec3, alpha_rad: f64) -> f64 {
+    let along = d.dot(u);
+    let across = (d - along * u).length();
+    let tan_alpha = alpha_rad.tan();
+    let denominator = across - tan_alpha * along;
+    if denominator <= 0.0 {
+        f64::INFINITY
+    } else {
+        r * tan_alpha / denominator
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ray_sphere_roots_are_accurate() {
+        let radius = 6.371e6;
+        // From 1 mm above the surface straight down: the near root is 1 mm.
+        let o = DVec3::new(0.0, 0.0, radius + 1e-3);
+        let (near, far) = ray_sphere(o, DVec3::NEG_Z, radius).unwrap();
+        assert!((near - 1e-3).abs() < 1e-9, "{near}");
+        assert!((far - (2.0 * radius + 1e-3)).abs() < 1e-6);
+        // From inside: one root behind.
+        let (near, far) = ray_sphere(DVec3::ZERO, DVec3::X, radius).unwrap();
+        assert_eq!((near, far), (-radius, radius));
+        // A miss.
+        assert!(ray_sphere(DVec3::new(0.0, 0.0, 2.0 * radius), DVec3::X, radius).is_none());
+    }
+
+    #[test]
+    fn cap_exit_subtends_the_cap_angle() {
+        let u = DVec3::Z;
+        let r = 6.4e6;
+        let d = DVec3::new(0.6, 0.0, -0.8);
+        let alpha = 1e-3;
+        let s = cap_exit_m(u, r, d, alpha);
+        let q = r * u + s * d;
+        let angle = u.cross(q).length().atan2(u.dot(q));
+        assert!((angle - alpha).abs() < 1e-12, "{angle}");
+        // Going up and out at a steep angle never leaves a wide cap.
+        assert!(cap_exit_m(u, r, DVec3::new(0.1, 0.0, 0.995).normalize(), 0.3).is_infinite());
+    }
+
+    #[test]
+    fn descent_reaches_the_sphere() {
+        let p = DVec3::new(0.0, 0.0, 6.38e6);
+        let d = DVec3::new(0.3, 0.0, -1.0).normalize();
+        let s = descent_to_sphere_m(p, p.length(), d, 6.371e6);
+        assert!(((p + s * d).length() - 6.371e6).abs() < 1e-6);
+        assert!(descent_to_sphere_m(p, p.length(), -d, 6.371e6).is_infinite());
+    }
+}
