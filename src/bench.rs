@@ -11,6 +11,7 @@ use std::time::Instant;
 
 use crate::clipmap::ClipmapSettings;
 use crate::geo::camera::Camera;
+use crate::measure::ErrorStats;
 use crate::render::dem_feed::FeedFrame;
 use crate::render::offscreen::{COLOR_FORMAT, OffscreenFrame, RenderedFrame, SETTLE_TIMEOUT};
 use crate::render::timing::GpuTimer;
@@ -29,6 +30,9 @@ pub struct BenchOptions {
     pub height: u32,
     pub settings: ClipmapSettings,
     pub stream: StreamSettings,
+    /// Measure the error of a settled frame (ρ against the terrain function, coverage against
+    /// the reference ray caster).
+    pub measure_error: bool,
     /// Frames start at most this often (a viewer's frame rate: streaming gets the wall time a
     /// real flight gives it); None renders back to back.
     pub frame_interval: Option<std::time::Duration>,
@@ -60,6 +64,8 @@ pub struct BenchRun {
     /// The settled last frame (flight only), for error measurement.
     pub final_frame: Option<RenderedFrame>,
     pub final_camera: Camera,
+    /// Error of the settled last frame (see [`BenchOptions::measure_error`]).
+    pub error: Option<ErrorStats>,
     pub wall_s: f64,
 }
 
@@ -183,8 +189,21 @@ pub fn run(
         final_vs_loaded_px = Some(pixels_differing(&last, &loaded));
         final_frame = Some(last);
     }
+    let error = if options.measure_error {
+        let frame = match final_frame.take() {
+            Some(f) => f,
+            None => target.render(ctx, &mut renderer, &final_camera)?,
+        };
+        let stats = crate::measure::evaluate(&frame, &final_camera, terrain, true)
+            .map_err(|e| RenderError::Readback(e.to_string()))?;
+        final_frame = Some(frame);
+        Some(stats)
+    } else {
+        None
+    };
     Ok(BenchRun {
         adapter: ctx.adapter_description(),
+        error,
         options: options.clone(),
         frames,
         settle_s,
@@ -328,6 +347,19 @@ impl BenchRun {
                 self.final_vs_loaded_px
                     .map_or("null".to_string(), |n| n.to_string()),
             ),
+            ("mean_px".into(), num(self.error.map(|e| e.mean_px))),
+            ("p99_px".into(), num(self.error.map(|e| e.p99_px))),
+            ("max_px".into(), num(self.error.map(|e| e.max_px))),
+            (
+                "error_pixels_pct".into(),
+                num(self.error.map(|e| 100.0 * e.error_pixel_share)),
+            ),
+            (
+                "mismatch_px".into(),
+                self.error
+                    .and_then(|e| e.coverage)
+                    .map_or("null".to_string(), |c| c.mismatched().to_string()),
+            ),
             ("wall_s".into(), format!("{:.3}", self.wall_s)),
         ]);
         for (k, v) in extra {
@@ -371,4 +403,175 @@ mod tests {
     fn json_strings_are_escaped() {
         assert_eq!(json_string("a\"b\\c\n"), "\"a\\\"b\\\\c\\u000a\"");
     }
+}
+
+/// Throughput of the streaming pipeline against the raw read rate of the same file.
+#[derive(Clone, Debug)]
+pub struct Throughput {
+    pub tiles: usize,
+    pub tile_bytes: u64,
+    /// Seconds for the pipeline (queue, tokio blocking pool, CRC, decode, channel) to deliver
+    /// `tiles` tiles: first pass (pages as the caller left them: cold after a cache drop) and
+    /// second pass (the same tiles again, from the page cache).
+    pub pipeline_s: [f64; 2],
+    /// Seconds to read as many tiles of another block of the same level one after another on
+    /// one thread (mmap, CRC, decode: the raw rate), first and second pass.
+    pub raw_s: [f64; 2],
+}
+
+impl Throughput {
+    pub fn tiles_per_s(&self, seconds: f64) -> f64 {
+        self.tiles as f64 / seconds
+    }
+    pub fn mb_per_s(&self, seconds: f64) -> f64 {
+        (self.tiles as u64 * self.tile_bytes) as f64 / (1 << 20) as f64 / seconds
+    }
+}
+
+/// `count` tiles of level 0 in a growing square around (lat, lon).
+fn tiles_around(
+    pyramid: &crate::dem::pyramid::Pyramid,
+    count: usize,
+    lat_deg: f64,
+    lon_deg: f64,
+) -> Vec<crate::stream::TileKey> {
+    let level = pyramid.levels()[0];
+    let (row, col) = level.grid.row_col_of(lat_deg, lon_deg);
+    let t = pyramid.tile_size() as f64;
+    let (cx, cy) = ((col / t) as i64, (row / t) as i64);
+    let mut keys = Vec::new();
+    let mut seen = std::collections::HashSet::new();
+    let limit = count.min(level.tile_count());
+    for r in 0i64.. {
+        for dy in -r..=r {
+            for dx in -r..=r {
+                let tx = (cx + dx).rem_euclid(level.tiles_x as i64);
+                let ty = (cy + dy).clamp(0, level.tiles_y as i64 - 1);
+                if keys.len() < limit && seen.insert((tx, ty)) {
+                    keys.push(crate::stream::TileKey {
+                        level: 0,
+                        tx: tx as u32,
+                        ty: ty as u32,
+                    });
+                }
+            }
+        }
+        if keys.len() >= limit {
+            break;
+        }
+    }
+    keys
+}
+
+/// Measures [`Throughput`] on `count` tiles of the finest level around (lat, lon) through the
+/// pipeline, against `count` tiles around (lat, lon + 90°) read raw (separate blocks, so
+/// neither side finds the other's pages cached or read ahead). For cold-cache first passes
+/// drop the page cache before (Linux, root: `sync; echo 1 > /proc/sys/vm/drop_caches`).
+pub fn throughput(
+    dem: &crate::terrain::DemTerrain,
+    stream: &StreamSettings,
+    count: usize,
+    lat_deg: f64,
+    lon_deg: f64,
+) -> std::io::Result<Throughput> {
+    use crate::stream::source::open_source;
+    use crate::stream::{Completion, TileStreamer};
+    let pyramid = dem.pyramid();
+    let pipe_keys = tiles_around(pyramid, count, lat_deg, lon_deg);
+    let raw_keys = tiles_around(pyramid, count, lat_deg, lon_deg + 90.0);
+    let n = raw_keys.len().min(pipe_keys.len());
+    let source = open_source(dem.pyramid_arc(), stream.faults);
+    let mut raw_s = [0.0; 2];
+    let mut pipeline_s = [0.0; 2];
+    for pass in 0..2 {
+        raw_s[pass] = crate::stream::raw_read_rate(source.as_ref(), &raw_keys[..n]).2;
+        let streamer = TileStreamer::new(source.clone(), stream)?;
+        let started = Instant::now();
+        let wanted = pipe_keys[..n]
+            .iter()
+            .enumerate()
+            .map(|(i, k)| (*k, i as u64))
+            .collect();
+        streamer.want(&wanted);
+        let mut done = 0;
+        let deadline = started + SETTLE_TIMEOUT;
+        while done < n && Instant::now() < deadline {
+            if let Some(Completion::Loaded(_)) =
+                streamer.wait(std::time::Duration::from_millis(100))
+            {
+                done += 1;
+            }
+        }
+        pipeline_s[pass] = started.elapsed().as_secs_f64();
+    }
+    Ok(Throughput {
+        tiles: n,
+        tile_bytes: 3 * 2 * (pyramid.tile_size() * pyramid.tile_size()) as u64,
+        pipeline_s,
+        raw_s,
+    })
+}
+
+/// A jump across the globe: settled at `from`, the camera moves to `to` in one frame.
+#[derive(Clone, Debug)]
+pub struct Jump {
+    pub from: String,
+    pub to: String,
+    /// Seconds from the jump until every level had its data (full detail).
+    pub to_full_detail_s: f64,
+    /// Frames rendered meanwhile (the view showed the coarser levels).
+    pub frames: usize,
+    pub tiles_loaded: u64,
+    pub tiles_cancelled: u64,
+    pub bytes_read: u64,
+}
+
+/// Measures a jump from scene `from` to scene `to` with frames rendered back to back (no
+/// waiting), until streaming has settled.
+pub fn jump(
+    ctx: &GpuContext,
+    terrain: &Terrain,
+    options: &BenchOptions,
+    from: &str,
+    to: &str,
+) -> Result<Jump, RenderError> {
+    let scene = |name: &str| {
+        Scene::by_name(name)
+            .ok_or_else(|| RenderError::Stream(format!("unknown scene '{name}'")))
+            .map(|s| s.camera(|lat, lon| terrain.height_at_lat_lon_m(lat, lon)))
+    };
+    let (a, b) = (scene(from)?, scene(to)?);
+    let mut renderer = TerrainRenderer::with_streaming(
+        &ctx.device,
+        options.settings.clone(),
+        terrain.clone(),
+        COLOR_FORMAT,
+        options.stream,
+    )?;
+    let target = OffscreenFrame::new(&ctx.device, options.width, options.height);
+    renderer.settle(ctx, &a, options.width, options.height, SETTLE_TIMEOUT);
+    let before = target.draw_timed(ctx, &mut renderer, &a, None)?;
+    let s0 = before.info.stream.unwrap_or_default().stream;
+    let started = Instant::now();
+    let mut frames = 0;
+    let mut last = None;
+    while started.elapsed() < SETTLE_TIMEOUT {
+        let f = target.draw_timed(ctx, &mut renderer, &b, None)?;
+        frames += 1;
+        let settled = f.info.settled();
+        last = f.info.stream;
+        if settled {
+            break;
+        }
+    }
+    let s1 = last.unwrap_or_default().stream;
+    Ok(Jump {
+        from: from.into(),
+        to: to.into(),
+        to_full_detail_s: started.elapsed().as_secs_f64(),
+        frames,
+        tiles_loaded: s1.tiles_loaded - s0.tiles_loaded,
+        tiles_cancelled: s1.tiles_cancelled - s0.tiles_cancelled,
+        bytes_read: s1.bytes_read - s0.bytes_read,
+    })
 }

@@ -44,6 +44,9 @@ enum Command {
 enum Overlay {
     /// Each clipmap level in its own colour.
     Levels,
+    /// The per-pixel screen-space error ρ as a heat map (blue 0 px, yellow 1 px, red ≥ 4 px),
+    /// computed on the CPU against the terrain function (`globe render` only).
+    Error,
 }
 
 /// Clipmap settings; the defaults are explained in README.md.
@@ -187,8 +190,10 @@ impl StreamArgs {
 
 #[derive(Args)]
 struct BenchArgs {
-    /// Scene to benchmark (see `globe scenes`), or `flight`: the path from space down to the
-    /// ground, played over --frames frames from a cold start.
+    /// Scene to benchmark (see `globe scenes`); `flight`: the path from space down to the
+    /// ground, played over --frames frames from a cold start; `jump`: the time from a jump
+    /// (aircraft → everest) to full detail, and the pipeline's tiles/s and MB/s against the
+    /// raw read rate of the same file (--throughput-tiles tiles each).
     #[arg(long, default_value = "aircraft")]
     scene: String,
     /// Measured frames.
@@ -205,6 +210,13 @@ struct BenchArgs {
     width: u32,
     #[arg(long, default_value_t = 720)]
     height: u32,
+    /// Tiles read by each side of the `jump` throughput comparison.
+    #[arg(long = "throughput-tiles", default_value_t = 256)]
+    throughput_tiles: usize,
+    /// Skip the error measurement of the settled frame (ρ against the terrain function and the
+    /// reference ray caster's coverage: seconds per megapixel on the CPU).
+    #[arg(long = "no-error")]
+    no_error: bool,
     /// Print one JSON object per run on stdout (one line each) instead of a summary.
     #[arg(long)]
     json: bool,
@@ -256,6 +268,10 @@ struct RenderArgs {
     /// Render with whatever tiles have arrived instead of waiting for streaming to settle.
     #[arg(long = "no-wait")]
     no_wait: bool,
+    /// Print the frame's error: ρ statistics against the terrain function and coverage
+    /// mismatches against the reference ray caster (slow: seconds per megapixel).
+    #[arg(long)]
+    measure: bool,
     #[command(flatten)]
     mesh: MeshArgs,
     #[command(flatten)]
@@ -340,11 +356,28 @@ fn render(args: &RenderArgs) -> anyhow::Result<ExitCode> {
     renderer.overlays.levels = args.overlay == Some(Overlay::Levels);
     let camera = scene.camera(|lat, lon| renderer.terrain_height_m(lat, lon));
     let target = OffscreenFrame::new(&ctx.device, args.width, args.height);
-    let frame = if args.no_wait {
+    let mut frame = if args.no_wait {
         target.render_now(&ctx, &mut renderer, &camera)?
     } else {
         target.render(&ctx, &mut renderer, &camera)?
     };
+    if args.measure {
+        let e = globe::measure::evaluate(&frame, &camera, &renderer.terrain, true)?;
+        eprintln!(
+            "error: mean ρ {:.3} px, p99 {:.3} px, max {:.3} px over {} terrain px; {:.3} % above {} px; coverage mismatches {} px",
+            e.mean_px,
+            e.p99_px,
+            e.max_px,
+            e.pixels_measured,
+            100.0 * e.error_pixel_share,
+            e.threshold_px,
+            e.coverage.map_or(0, |c| c.mismatched())
+        );
+    }
+    if args.overlay == Some(Overlay::Error) {
+        let rho = globe::measure::rho_image(&frame, &camera, &renderer.terrain);
+        globe::measure::overlay_heat(&mut frame.rgba, &rho, 0.75);
+    }
     frame
         .save_png(&args.out)
         .with_context(|| format!("cannot write {}", args.out.display()))?;
@@ -408,6 +441,9 @@ fn viewer(args: &ViewerArgs) -> anyhow::Result<ExitCode> {
 }
 
 fn bench(args: &BenchArgs) -> anyhow::Result<ExitCode> {
+    if args.scene == "jump" {
+        return bench_jump(args);
+    }
     if args.scene != globe::scenes::flight::NAME {
         find_scene(&args.scene)?;
     }
@@ -430,6 +466,7 @@ fn bench(args: &BenchArgs) -> anyhow::Result<ExitCode> {
             height: args.height,
             settings: settings.clone(),
             stream: args.stream.settings_with_latency(latency)?,
+            measure_error: !args.no_error,
             frame_interval: {
                 let default = if args.scene == globe::scenes::flight::NAME {
                     60.0
@@ -520,6 +557,17 @@ fn print_bench(run: &globe::bench::BenchRun) {
             s.gpu_bytes_uploaded as f64 / 1048576.0
         );
     }
+    if let Some(e) = &run.error {
+        println!(
+            "  error (settled frame): mean ρ {:.3} px, p99 {:.3} px, max {:.3} px, {:.3} % above {} px, {} px coverage mismatches",
+            e.mean_px,
+            e.p99_px,
+            e.max_px,
+            100.0 * e.error_pixel_share,
+            e.threshold_px,
+            e.coverage.map_or(0, |c| c.mismatched())
+        );
+    }
     if let (Some(t), Some(px)) = (run.settle_s, run.final_vs_loaded_px) {
         println!(
             "  settled {} s after the last frame ({}); last frame vs. everything loaded: {px} px differ",
@@ -527,4 +575,118 @@ fn print_bench(run: &globe::bench::BenchRun) {
             if run.settled { "complete" } else { "TIMED OUT" }
         );
     }
+}
+
+fn bench_jump(args: &BenchArgs) -> anyhow::Result<ExitCode> {
+    let ctx = GpuContext::headless().context("cannot benchmark without a graphics adapter")?;
+    let adapter = ctx.adapter_description();
+    eprintln!("adapter: {adapter}");
+    let terrain = args.dem.open()?;
+    eprintln!("terrain: {}", terrain.describe());
+    let Terrain::Dem(dem) = &terrain else {
+        bail!("`--scene jump` measures streaming: it needs a DEM (--dem), not the analytic planet");
+    };
+    let stream = args.stream.settings()?;
+    let options = globe::bench::BenchOptions {
+        scene: "jump".into(),
+        frames: 0,
+        warmup: 0,
+        width: args.width,
+        height: args.height,
+        settings: args.mesh.settings()?,
+        stream,
+        measure_error: false,
+        frame_interval: None,
+    };
+    eprintln!(
+        "throughput: {} tiles raw, {} through the pipeline…",
+        args.throughput_tiles, args.throughput_tiles
+    );
+    let (lat, lon) = (27.95, 86.90);
+    let tp = globe::bench::throughput(dem, &stream, args.throughput_tiles, lat, lon)
+        .context("cannot start the tile streamer")?;
+    eprintln!("jump aircraft → everest…");
+    let jump = globe::bench::jump(&ctx, &terrain, &options, "aircraft", "everest")?;
+    let fields = [
+        ("adapter", globe::bench::json_string(&adapter)),
+        ("scene", "\"jump\"".to_string()),
+        ("file_bytes", dem.pyramid().info().file_bytes.to_string()),
+        ("width", args.width.to_string()),
+        ("height", args.height.to_string()),
+        ("jump_from", globe::bench::json_string(&jump.from)),
+        ("jump_to", globe::bench::json_string(&jump.to)),
+        (
+            "jump_to_full_detail_s",
+            format!("{:.3}", jump.to_full_detail_s),
+        ),
+        ("jump_frames", jump.frames.to_string()),
+        ("jump_tiles_loaded", jump.tiles_loaded.to_string()),
+        ("jump_tiles_cancelled", jump.tiles_cancelled.to_string()),
+        ("jump_bytes_read", jump.bytes_read.to_string()),
+        ("throughput_tiles", tp.tiles.to_string()),
+        (
+            "pipeline_tiles_per_s",
+            format!("{:.1}", tp.tiles_per_s(tp.pipeline_s[0])),
+        ),
+        (
+            "pipeline_mb_per_s",
+            format!("{:.1}", tp.mb_per_s(tp.pipeline_s[0])),
+        ),
+        (
+            "raw_tiles_per_s",
+            format!("{:.1}", tp.tiles_per_s(tp.raw_s[0])),
+        ),
+        ("raw_mb_per_s", format!("{:.1}", tp.mb_per_s(tp.raw_s[0]))),
+        (
+            "pipeline_vs_raw",
+            format!("{:.3}", tp.raw_s[0] / tp.pipeline_s[0]),
+        ),
+        (
+            "pipeline_mb_per_s_cached",
+            format!("{:.1}", tp.mb_per_s(tp.pipeline_s[1])),
+        ),
+        (
+            "raw_mb_per_s_cached",
+            format!("{:.1}", tp.mb_per_s(tp.raw_s[1])),
+        ),
+        (
+            "pipeline_vs_raw_cached",
+            format!("{:.3}", tp.raw_s[1] / tp.pipeline_s[1]),
+        ),
+        ("tile_latency_ms", stream.faults.latency_ms.to_string()),
+        ("max_in_flight", stream.max_in_flight.to_string()),
+    ];
+    if args.json {
+        let body: Vec<String> = fields
+            .iter()
+            .map(|(k, v)| format!("{}: {v}", globe::bench::json_string(k)))
+            .collect();
+        println!("{{{}}}", body.join(", "));
+    } else {
+        println!(
+            "jump {} → {}: full detail after {:.3} s ({} frames, {} tiles loaded, {} cancelled, {:.1} MiB)",
+            jump.from,
+            jump.to,
+            jump.to_full_detail_s,
+            jump.frames,
+            jump.tiles_loaded,
+            jump.tiles_cancelled,
+            jump.bytes_read as f64 / 1048576.0
+        );
+        for (pass, what) in ["first pass", "second pass (page cache)"]
+            .iter()
+            .enumerate()
+        {
+            println!(
+                "throughput, {what}, {} tiles each: pipeline {:.1} tiles/s ({:.1} MB/s), raw {:.1} tiles/s ({:.1} MB/s): pipeline/raw {:.3}",
+                tp.tiles,
+                tp.tiles_per_s(tp.pipeline_s[pass]),
+                tp.mb_per_s(tp.pipeline_s[pass]),
+                tp.tiles_per_s(tp.raw_s[pass]),
+                tp.mb_per_s(tp.raw_s[pass]),
+                tp.raw_s[pass] / tp.pipeline_s[pass]
+            );
+        }
+    }
+    Ok(ExitCode::SUCCESS)
 }

@@ -369,3 +369,40 @@ mod tests {
         assert!((s.error_pixel_share - 0.89).abs() < 1e-12);
     }
 }
+
+/// Lays the heat map of `rho_px` over an RGBA8 frame (`--overlay error`): terrain pixels take
+/// the heat colour at `opacity` (0…1) over their shading, so relief stays readable; sky stays.
+pub fn overlay_heat(rgba: &mut [u8], rho_px: &[f32], opacity: f32) {
+    let a = opacity.clamp(0.0, 1.0);
+    for (px, &r) in rgba.chunks_exact_mut(4).zip(rho_px) {
+        if r.is_nan() {
+            continue;
+        }
+        let heat = heat_rgb(f64::from(r));
+        for i in 0..3 {
+            px[i] = (f32::from(px[i]) * (1.0 - a) + f32::from(heat[i]) * a).round() as u8;
+        }
+    }
+}
+
+/// The full measurement of one frame: ρ statistics against the terrain function and, when
+/// `with_reference`, coverage against the reference ray caster (the slow part: seconds per
+/// megapixel on the embedded Earth).
+pub fn evaluate(
+    frame: &RenderedFrame,
+    camera: &Camera,
+    field: &(impl HeightField + ?Sized),
+    with_reference: bool,
+) -> Result<ErrorStats, MeasureError> {
+    let reference = with_reference.then(|| {
+        super::reference::RayCaster::new(field, camera, frame.width, frame.height)
+            .cast(&super::reference::PixelSet::All)
+    });
+    measure_frame(
+        frame,
+        camera,
+        field,
+        reference.as_ref(),
+        DEFAULT_THRESHOLD_PX,
+    )
+}

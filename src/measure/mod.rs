@@ -21,8 +21,8 @@ pub mod metric;
 pub mod reference;
 
 pub use metric::{
-    Coverage, DEFAULT_THRESHOLD_PX, ErrorStats, PixelError, heat_rgb, measure_frame, pixel_error,
-    rho_image, write_heat_map_png,
+    Coverage, DEFAULT_THRESHOLD_PX, ErrorStats, PixelError, evaluate, heat_rgb, measure_frame,
+    overlay_heat, pixel_error, rho_image, write_heat_map_png,
 };
 pub use reference::{
     ConstantHeight, HeightField, LocalBounds, PixelSet, RayCastOptions, RayCaster, RayHit,
