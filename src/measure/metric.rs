@@ -339,37 +339,6 @@ pub fn write_heat_map_png(
     })
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn heat_map_stops() {
-        assert_eq!(heat_rgb(0.0), [10, 20, 100]);
-        assert_eq!(heat_rgb(1.0), [250, 225, 30]);
-        assert_eq!(heat_rgb(4.0), [215, 0, 0]);
-        assert_eq!(heat_rgb(100.0), [215, 0, 0]);
-        assert_eq!(heat_rgb(-1.0), [10, 20, 100]);
-        assert_eq!(heat_rgb(f64::NAN), [0, 0, 0]);
-        // Between stops: halfway from yellow to orange.
-        assert_eq!(heat_rgb(1.5), [253, 178, 15]);
-    }
-
-    #[test]
-    fn stats_of_a_known_rho_image() {
-        let mut rho: Vec<f32> = (0..100).map(|i| i as f32 / 10.0).collect();
-        rho.push(f32::NAN);
-        let s = ErrorStats::of_rho(&rho, DEFAULT_THRESHOLD_PX);
-        assert_eq!(s.pixels_measured, 100);
-        assert!((s.mean_px - 4.95).abs() < 1e-6);
-        assert!((s.max_px - 9.9).abs() < 1e-6);
-        assert!((s.p99_px - 9.8).abs() < 1e-6);
-        // 1.1 … 9.9 exceed 1 px.
-        assert_eq!(s.error_pixels, 89);
-        assert!((s.error_pixel_share - 0.89).abs() < 1e-12);
-    }
-}
-
 /// Lays the heat map of `rho_px` over an RGBA8 frame (`--overlay error`): terrain pixels take
 /// the heat colour at `opacity` (0…1) over their shading, so relief stays readable; sky stays.
 pub fn overlay_heat(rgba: &mut [u8], rho_px: &[f32], opacity: f32) {
@@ -405,4 +374,35 @@ pub fn evaluate(
         reference.as_ref(),
         DEFAULT_THRESHOLD_PX,
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn heat_map_stops() {
+        assert_eq!(heat_rgb(0.0), [10, 20, 100]);
+        assert_eq!(heat_rgb(1.0), [250, 225, 30]);
+        assert_eq!(heat_rgb(4.0), [215, 0, 0]);
+        assert_eq!(heat_rgb(100.0), [215, 0, 0]);
+        assert_eq!(heat_rgb(-1.0), [10, 20, 100]);
+        assert_eq!(heat_rgb(f64::NAN), [0, 0, 0]);
+        // Between stops: halfway from yellow to orange.
+        assert_eq!(heat_rgb(1.5), [253, 178, 15]);
+    }
+
+    #[test]
+    fn stats_of_a_known_rho_image() {
+        let mut rho: Vec<f32> = (0..100).map(|i| i as f32 / 10.0).collect();
+        rho.push(f32::NAN);
+        let s = ErrorStats::of_rho(&rho, DEFAULT_THRESHOLD_PX);
+        assert_eq!(s.pixels_measured, 100);
+        assert!((s.mean_px - 4.95).abs() < 1e-6);
+        assert!((s.max_px - 9.9).abs() < 1e-6);
+        assert!((s.p99_px - 9.8).abs() < 1e-6);
+        // 1.1 … 9.9 exceed 1 px.
+        assert_eq!(s.error_pixels, 89);
+        assert!((s.error_pixel_share - 0.89).abs() < 1e-12);
+    }
 }
