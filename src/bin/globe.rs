@@ -36,8 +36,35 @@ enum Command {
     /// Benchmark a scene or the `flight` path headless: per-frame CPU and GPU time,
     /// triangles, levels, streaming counters (median/min/max; `--json` for one JSON object).
     Bench(BenchArgs),
+    /// Run every method and setting over the named scenes and write report.csv, report.md
+    /// and error_vs_time.png: triangles, CPU/GPU time and the per-pixel error ρ.
+    Report(ReportArgs),
     /// List the named scenes (the viewer's bookmarks).
     Scenes,
+}
+
+#[derive(Args)]
+struct ReportArgs {
+    /// Folder to write report.csv, report.md and error_vs_time.png into (created if missing).
+    #[arg(long)]
+    out: PathBuf,
+    /// Scenes to run, comma-separated.
+    #[arg(long, value_delimiter = ',', default_value = "space,aircraft,ground")]
+    scenes: Vec<String>,
+    #[arg(long, default_value_t = 1920)]
+    width: u32,
+    #[arg(long, default_value_t = 1080)]
+    height: u32,
+    /// Timed frames per setting (medians reported).
+    #[arg(long, default_value_t = 5)]
+    frames: usize,
+    /// The base settings every row varies one parameter of.
+    #[command(flatten)]
+    mesh: MeshArgs,
+    #[command(flatten)]
+    dem: DemArgs,
+    #[command(flatten)]
+    stream: StreamArgs,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -302,6 +329,7 @@ fn run() -> anyhow::Result<ExitCode> {
         }
         Some(Command::Render(args)) => render(&args),
         Some(Command::Bench(args)) => bench(&args),
+        Some(Command::Report(args)) => report(&args),
         None => viewer(&cli.viewer),
     }
 }
@@ -688,5 +716,40 @@ fn bench_jump(args: &BenchArgs) -> anyhow::Result<ExitCode> {
             );
         }
     }
+    Ok(ExitCode::SUCCESS)
+}
+
+fn report(args: &ReportArgs) -> anyhow::Result<ExitCode> {
+    for name in &args.scenes {
+        find_scene(name)?;
+    }
+    if args.frames == 0 || args.width == 0 || args.height == 0 {
+        bail!("--frames, --width and --height must be at least 1");
+    }
+    let ctx = GpuContext::headless().context("cannot run the report without a graphics adapter")?;
+    let adapter = ctx.adapter_description();
+    eprintln!("adapter: {adapter}");
+    let terrain = args.dem.open()?;
+    eprintln!("terrain: {}", terrain.describe());
+    let options = globe::report::ReportOptions {
+        scenes: args.scenes.clone(),
+        width: args.width,
+        height: args.height,
+        frames: args.frames,
+        base: args.mesh.settings()?,
+        stream: args.stream.settings()?,
+    };
+    let started = Instant::now();
+    let rows = globe::report::run(&ctx, &terrain, &options, |line| {
+        eprintln!("{:7.1} s  {line}", started.elapsed().as_secs_f64());
+    })?;
+    globe::report::write(&args.out, &rows, &adapter, &terrain.describe(), &options)
+        .with_context(|| format!("cannot write the report into {}", args.out.display()))?;
+    eprintln!(
+        "wrote {}/report.csv, report.md, error_vs_time.png ({} rows) in {:.1} s",
+        args.out.display(),
+        rows.len(),
+        started.elapsed().as_secs_f64()
+    );
     Ok(ExitCode::SUCCESS)
 }
