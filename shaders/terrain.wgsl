@@ -230,3 +230,19 @@ fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
     }
     return vec4<f32>(colour, 1.0);
 }
+
+// Pass-through (the benchmark's raster-limit reference, `globe bench --passthrough`): the
+// same vertices and triangles placed on the bare sphere, no map transform, no texture reads,
+// one flat colour. The terrain pass's GPU time over this one's says how close to the raster
+// limit the terrain shading runs.
+@vertex
+fn vs_passthrough(v: RingVertex) -> @builtin(position) vec4<f32> {
+    let r = frame.radius_m;
+    let rel = vec3<f32>(r * v.p_tilde.x, r * v.p_tilde.y, -frame.eye_height_m - r * v.one_minus_cos);
+    return frame.clip_from_view * vec4<f32>(rel, 1.0);
+}
+
+@fragment
+fn fs_passthrough() -> @location(0) vec4<f32> {
+    return vec4<f32>(0.5, 0.5, 0.5, 1.0);
+}

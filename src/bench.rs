@@ -30,6 +30,9 @@ pub struct BenchOptions {
     pub height: u32,
     pub settings: ClipmapSettings,
     pub stream: StreamSettings,
+    /// Also time the same frames with the pass-through pipeline (same triangles, no shading:
+    /// the raster limit), named scenes only.
+    pub passthrough: bool,
     /// Measure the error of a settled frame (ρ against the terrain function, coverage against
     /// the reference ray caster).
     pub measure_error: bool,
@@ -66,6 +69,8 @@ pub struct BenchRun {
     pub final_camera: Camera,
     /// Error of the settled last frame (see [`BenchOptions::measure_error`]).
     pub error: Option<ErrorStats>,
+    /// The pass-through pipeline's frames (see [`BenchOptions::passthrough`]).
+    pub passthrough: Vec<FrameRecord>,
     pub wall_s: f64,
 }
 
@@ -164,6 +169,24 @@ pub fn run(
         });
         progress(i + 1, options.frames);
     }
+    let mut passthrough = Vec::new();
+    if let (true, Some(camera)) = (options.passthrough, &fixed) {
+        renderer.use_passthrough = true;
+        for _ in 0..options.frames {
+            let f = target.draw_timed(ctx, &mut renderer, camera, timer.as_ref())?;
+            passthrough.push(FrameRecord {
+                cpu_ms: f.cpu_ms,
+                frame_ms: f.frame_ms,
+                gpu_ms: f.gpu_ms,
+                triangles: f.info.draw.triangles,
+                levels_drawn: f.info.selection.finest - f.info.selection.coarsest + 1,
+                levels_waiting: 0,
+                altitude_m: camera.altitude_m,
+                stream: None,
+            });
+        }
+        renderer.use_passthrough = false;
+    }
     let final_camera = camera_of(options.frames.saturating_sub(1));
     let (mut settle_s, mut settled, mut final_vs_loaded_px, mut final_frame) =
         (None, true, None, None);
@@ -204,6 +227,7 @@ pub fn run(
     Ok(BenchRun {
         adapter: ctx.adapter_description(),
         error,
+        passthrough,
         options: options.clone(),
         frames,
         settle_s,
@@ -226,6 +250,18 @@ impl BenchRun {
 
     pub fn gpu_ms(&self) -> Option<(f64, f64, f64)> {
         summary(&self.values(|f| f.gpu_ms))
+    }
+
+    /// Median GPU time of the pass-through frames.
+    pub fn passthrough_gpu_ms(&self) -> Option<f64> {
+        summary(
+            &self
+                .passthrough
+                .iter()
+                .filter_map(|f| f.gpu_ms)
+                .collect::<Vec<_>>(),
+        )
+        .map(|s| s.0)
     }
 
     /// The largest decoded-tile cache size seen in any frame.
@@ -359,6 +395,14 @@ impl BenchRun {
                 self.error
                     .and_then(|e| e.coverage)
                     .map_or("null".to_string(), |c| c.mismatched().to_string()),
+            ),
+            ("passthrough_gpu_ms".into(), num(self.passthrough_gpu_ms())),
+            (
+                "terrain_vs_passthrough".into(),
+                num(self
+                    .gpu_ms()
+                    .zip(self.passthrough_gpu_ms())
+                    .map(|(t, p)| t.0 / p)),
             ),
             ("wall_s".into(), format!("{:.3}", self.wall_s)),
         ]);

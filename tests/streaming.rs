@@ -88,6 +88,7 @@ fn flight_options(latency_ms: u64, fail_rate: f64, cache_bytes: u64) -> BenchOpt
         },
         frame_interval: Some(Duration::from_millis(16)),
         measure_error: false,
+        passthrough: false,
     }
 }
 

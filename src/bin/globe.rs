@@ -237,6 +237,10 @@ struct BenchArgs {
     width: u32,
     #[arg(long, default_value_t = 720)]
     height: u32,
+    /// Also time the same frames drawn by a pass-through pipeline (same triangles on the bare
+    /// sphere, no texture reads, flat colour) and report terrain/pass-through GPU time.
+    #[arg(long)]
+    passthrough: bool,
     /// Tiles read by each side of the `jump` throughput comparison.
     #[arg(long = "throughput-tiles", default_value_t = 256)]
     throughput_tiles: usize,
@@ -495,6 +499,7 @@ fn bench(args: &BenchArgs) -> anyhow::Result<ExitCode> {
             settings: settings.clone(),
             stream: args.stream.settings_with_latency(latency)?,
             measure_error: !args.no_error,
+            passthrough: args.passthrough,
             frame_interval: {
                 let default = if args.scene == globe::scenes::flight::NAME {
                     60.0
@@ -585,6 +590,12 @@ fn print_bench(run: &globe::bench::BenchRun) {
             s.gpu_bytes_uploaded as f64 / 1048576.0
         );
     }
+    if let (Some(p), Some(t)) = (run.passthrough_gpu_ms(), run.gpu_ms()) {
+        println!(
+            "  pass-through GPU ms median {p:.3}: terrain / pass-through {:.2}",
+            t.0 / p
+        );
+    }
     if let Some(e) = &run.error {
         println!(
             "  error (settled frame): mean ρ {:.3} px, p99 {:.3} px, max {:.3} px, {:.3} % above {} px, {} px coverage mismatches",
@@ -624,6 +635,7 @@ fn bench_jump(args: &BenchArgs) -> anyhow::Result<ExitCode> {
         settings: args.mesh.settings()?,
         stream,
         measure_error: false,
+        passthrough: false,
         frame_interval: None,
     };
     eprintln!(
