@@ -329,7 +329,14 @@ struct App {
     last_info: Option<FrameInfo>,
     frames: u64,
     smoke_frames: Option<u64>,
+    /// When the `flight` path started playing.
+    flight_started: Option<Instant>,
+    /// The error heat map of the view it was measured for.
+    error_overlay: Option<(Camera, egui::TextureHandle)>,
 }
+
+/// How long the viewer takes to fly the `flight` path.
+const FLIGHT_SECONDS: f64 = 30.0;
 
 impl App {
     fn new(
@@ -356,6 +363,8 @@ impl App {
             last_info: None,
             frames: 0,
             smoke_frames,
+            flight_started: None,
+            error_overlay: None,
         }
     }
 
@@ -381,6 +390,14 @@ impl App {
         let planet = &self.planet;
         let terrain = |lat: f64, lon: f64| terrain_height_m(planet, lat, lon);
         let radius_m = planet.radius_m();
+        if let Some(started) = self.flight_started {
+            let t = started.elapsed().as_secs_f64() / FLIGHT_SECONDS;
+            self.camera = crate::scenes::flight::camera(t, terrain);
+            if t >= 1.0 {
+                self.flight_started = None;
+                self.panel.message = Some("flight: arrived at the ground".into());
+            }
+        }
         controls::fly(
             &mut self.camera,
             &self.input.fly_input(),
@@ -445,7 +462,27 @@ impl App {
         let panel = &mut self.panel;
         let mut actions = Vec::new();
         let egui_ctx = gpu.egui_state.egui_ctx().clone();
+        if self
+            .error_overlay
+            .as_ref()
+            .is_some_and(|(c, _)| *c != self.camera)
+        {
+            self.error_overlay = None;
+        }
+        let overlay = self.error_overlay.as_ref().map(|(_, t)| t.id());
         let mut output = egui_ctx.run_ui(raw_input, |ui| {
+            if let Some(id) = overlay {
+                // Under the panel, over the terrain (the egui pass loads the terrain's image).
+                let screen = ui.ctx().content_rect();
+                ui.ctx()
+                    .layer_painter(egui::LayerId::background())
+                    .image(
+                        id,
+                        screen,
+                        egui::Rect::from_min_max(egui::pos2(0.0, 0.0), egui::pos2(1.0, 1.0)),
+                        egui::Color32::from_white_alpha(200),
+                    );
+            }
             actions = panel.show(ui, &readout, &mut live);
         });
         // Takes effect from the next frame's uniforms.
@@ -525,7 +562,18 @@ impl App {
     fn apply(&mut self, action: PanelAction) {
         match action {
             PanelAction::ApplyMesh(settings) => self.rebuild_renderer(settings),
+            PanelAction::PlayFlight => {
+                self.flight_started = Some(Instant::now());
+                self.panel.message = Some(format!(
+                    "flight: space → aircraft → ground over {FLIGHT_SECONDS} s"
+                ));
+            }
+            PanelAction::MeasureError => match self.measure_error() {
+                Ok(line) => self.panel.message = Some(line),
+                Err(e) => self.panel.message = Some(format!("error measurement failed: {e}")),
+            },
             PanelAction::GoToScene(scene) => {
+                self.flight_started = None;
                 let planet = &self.planet;
                 let terrain = |lat: f64, lon: f64| terrain_height_m(planet, lat, lon);
                 self.camera = scene.camera(terrain);
@@ -585,9 +633,6 @@ impl App {
     }
 
     fn try_screenshot(&mut self) -> Result<PathBuf, UiError> {
-        let Some(gpu) = self.gpu.as_mut() else {
-            return Err(UiError::Screenshot("no window yet".into()));
-        };
         let seconds = SystemTime::now()
             .duration_since(UNIX_EPOCH)
             .map_or(0, |d| d.as_secs());
@@ -597,8 +642,20 @@ impl App {
             path = PathBuf::from(format!("globe-screenshot-{seconds}-{n}.png"));
             n += 1;
         }
+        let frame = self.render_offscreen()?;
+        frame
+            .save_png(&path)
+            .map_err(|e| UiError::Screenshot(format!("{}: {e}", path.display())))?;
+        Ok(path)
+    }
+
+    /// The current view rendered offscreen at the window's size (after streaming settles).
+    fn render_offscreen(&mut self) -> Result<crate::render::RenderedFrame, UiError> {
+        let Some(gpu) = self.gpu.as_mut() else {
+            return Err(UiError::Screenshot("no window yet".into()));
+        };
         let target = OffscreenFrame::new(&gpu.ctx.device, gpu.config.width, gpu.config.height);
-        let frame = if gpu.config.format == offscreen::COLOR_FORMAT {
+        Ok(if gpu.config.format == offscreen::COLOR_FORMAT {
             target.render(&gpu.ctx, &mut gpu.terrain, &self.camera)?
         } else {
             // The terrain pipeline is built for the surface format; a one-off renderer for the
@@ -607,11 +664,36 @@ impl App {
                 .build_renderer(gpu.terrain.settings.clone(), offscreen::COLOR_FORMAT)
                 .map_err(|e| UiError::Render(RenderError::Gpu(e)))?;
             target.render(&gpu.ctx, &mut renderer, &self.camera)?
-        };
-        frame
-            .save_png(&path)
-            .map_err(|e| UiError::Screenshot(format!("{}: {e}", path.display())))?;
-        Ok(path)
+        })
+    }
+
+    /// Measures ρ of the current view and keeps its heat map as the overlay; returns a line of
+    /// statistics for the panel.
+    fn measure_error(&mut self) -> Result<String, UiError> {
+        let frame = self.render_offscreen()?;
+        let rho = crate::measure::rho_image(&frame, &self.camera, &self.planet);
+        let stats = crate::measure::ErrorStats::of_rho(&rho, crate::measure::DEFAULT_THRESHOLD_PX);
+        let rgba = crate::measure::metric::heat_map_rgba(&rho);
+        let image = egui::ColorImage::from_rgba_unmultiplied(
+            [frame.width as usize, frame.height as usize],
+            &rgba,
+        );
+        if let Some(gpu) = &self.gpu {
+            let texture = gpu.egui_state.egui_ctx().load_texture(
+                "error overlay",
+                image,
+                egui::TextureOptions::NEAREST,
+            );
+            self.error_overlay = Some((self.camera, texture));
+        }
+        Ok(format!(
+            "ρ: mean {:.3} px, p99 {:.3} px, max {:.3} px; {:.2} % above {} px",
+            stats.mean_px,
+            stats.p99_px,
+            stats.max_px,
+            100.0 * stats.error_pixel_share,
+            stats.threshold_px
+        ))
     }
 
     fn finish_smoke(&mut self, event_loop: &ActiveEventLoop) {

@@ -148,6 +148,11 @@ pub enum PanelAction {
     /// Rebuild the renderer with these (validated) settings.
     ApplyMesh(ClipmapSettings),
     GoToScene(&'static Scene),
+    /// Fly the `flight` path (space → aircraft → ground) over 30 s.
+    PlayFlight,
+    /// Render the view offscreen, measure ρ per pixel on the CPU and lay the heat map over the
+    /// view until the camera moves.
+    MeasureError,
     Screenshot,
 }
 
@@ -229,6 +234,13 @@ impl Panel {
                     actions.push(PanelAction::GoToScene(scene));
                 }
             }
+            if ui
+                .button(crate::scenes::flight::NAME)
+                .on_hover_text("fly from space down to the ground at Lake Garda (30 s; any scene button stops it)")
+                .clicked()
+            {
+                actions.push(PanelAction::PlayFlight);
+            }
         });
         ui.separator();
 
@@ -250,6 +262,17 @@ impl Panel {
         });
         ui.checkbox(&mut live.overlay_levels, "levels")
             .on_hover_text("colour each clipmap level");
+        if ui
+            .button("error overlay (ρ)")
+            .on_hover_text(
+                "measure the screen-space error of this view against the terrain function \
+                 (CPU) and show it as a heat map until the camera moves: \
+                 blue 0 px, yellow 1 px, red ≥ 4 px",
+            )
+            .clicked()
+        {
+            actions.push(PanelAction::MeasureError);
+        }
         ui.separator();
 
         self.mesh_section(ui, readout, actions);
