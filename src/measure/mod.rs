@@ -10,6 +10,7 @@
 //! | --- | --- |
 //! | [`reference`] | [`HeightField`] (the terrain function and its local bounds), the ray caster giving each pixel's true hit or sky |
 //! | [`metric`] | per-pixel δ and ρ from a rendered depth buffer, coverage against the reference, statistics, heat map |
+//! | [`plot`] | the report's error-against-time scatter plot with its Pareto front, as a PNG, with a built-in bitmap font |
 //!
 //! | frame | convention (as [`crate::geo`]) |
 //! | --- | --- |
@@ -18,6 +19,7 @@
 //! | distance | metres along the unit ray from the eye ([`crate::geo::pixel_ray_view`]) |
 
 pub mod metric;
+pub mod plot;
 pub mod reference;
 
 pub use metric::{
