@@ -313,7 +313,62 @@ pub fn markdown(rows: &[Row], adapter: &str, terrain: &str, options: &ReportOpti
     md
 }
 
-/// Writes `report.csv` and `report.md` into `dir` (created if missing).
+/// The kind of a setting, for the plot's legend (`n=256` → "mesh n").
+fn group_of(setting: &str) -> String {
+    match setting.split('=').next().unwrap_or(setting) {
+        "n" => "mesh n (steps per ring)".into(),
+        "m" => "mesh m (rings)".into(),
+        "texture" => "texture size".into(),
+        "transform" => "map transform".into(),
+        "overlay" => "overlay on".into(),
+        other => other.into(),
+    }
+}
+
+/// `error_vs_time.png`: one panel per scene (p99 ρ against time, log–log), stacked.
+pub fn plot(rows: &[Row], adapter: &str) -> image::RgbImage {
+    use crate::measure::plot::{PlotSpec, Point, render_plot};
+    let mut scenes: Vec<&str> = Vec::new();
+    for r in rows {
+        if !scenes.contains(&r.scene.as_str()) {
+            scenes.push(&r.scene);
+        }
+    }
+    let (w, h) = (1100u32, 620u32);
+    let mut out =
+        image::RgbImage::from_pixel(w, h * scenes.len().max(1) as u32, image::Rgb([255; 3]));
+    let gpu = rows.iter().all(|r| r.gpu_ms.is_some());
+    for (i, scene) in scenes.iter().enumerate() {
+        let points: Vec<Point> = rows
+            .iter()
+            .filter(|r| r.scene == *scene)
+            .map(|r| Point {
+                label: r.setting.clone(),
+                group: group_of(&r.setting),
+                x: r.time_ms(),
+                y: r.error.p99_px,
+            })
+            .collect();
+        let spec = PlotSpec {
+            title: format!("{scene}: p99 error against time, {adapter}"),
+            x_label: if gpu {
+                "GPU time of the terrain pass (ms)".into()
+            } else {
+                "frame time (ms)".into()
+            },
+            y_label: "p99 error ρ (px)".into(),
+            log_x: true,
+            log_y: true,
+            width: w,
+            height: h,
+        };
+        let panel = render_plot(&spec, &points);
+        image::imageops::replace(&mut out, &panel, 0, i as i64 * h as i64);
+    }
+    out
+}
+
+/// Writes `report.csv`, `report.md` and `error_vs_time.png` into `dir` (created if missing).
 pub fn write(
     dir: &Path,
     rows: &[Row],
@@ -327,5 +382,9 @@ pub fn write(
         dir.join("report.md"),
         markdown(rows, adapter, terrain, options),
     )?;
+    let short = adapter.split(" (").next().unwrap_or(adapter);
+    plot(rows, short)
+        .save(dir.join("error_vs_time.png"))
+        .map_err(std::io::Error::other)?;
     Ok(())
 }

@@ -474,14 +474,12 @@ impl App {
             if let Some(id) = overlay {
                 // Under the panel, over the terrain (the egui pass loads the terrain's image).
                 let screen = ui.ctx().content_rect();
-                ui.ctx()
-                    .layer_painter(egui::LayerId::background())
-                    .image(
-                        id,
-                        screen,
-                        egui::Rect::from_min_max(egui::pos2(0.0, 0.0), egui::pos2(1.0, 1.0)),
-                        egui::Color32::from_white_alpha(200),
-                    );
+                ui.ctx().layer_painter(egui::LayerId::background()).image(
+                    id,
+                    screen,
+                    egui::Rect::from_min_max(egui::pos2(0.0, 0.0), egui::pos2(1.0, 1.0)),
+                    egui::Color32::from_white_alpha(200),
+                );
             }
             actions = panel.show(ui, &readout, &mut live);
         });
