@@ -7,7 +7,6 @@ use globe::clipmap::ClipmapSettings;
 use globe::render::TerrainRenderer;
 use globe::render::fill::band_limit_texel_m;
 use globe::render::offscreen::COLOR_FORMAT;
-use globe::render::upload::grid_point_phi_theta;
 use globe::scenes::Scene;
 use globe::terrain::Terrain;
 
@@ -41,7 +40,7 @@ fn gpu_fill_from_tiles_matches_the_cpu_sampler() {
             let s = grid.size as i64;
             for j in (0..s).step_by(7) {
                 for i in (0..s).step_by(5) {
-                    let (phi, theta) = grid_point_phi_theta(&grid, grid.gx0 + i, grid.gy0 + j);
+                    let (phi, theta) = grid.phi_theta_of(grid.gx0 + i, grid.gy0 + j);
                     let want = dem.height_band_limited_m(phi, theta, pl);
                     let got = heights[(j * s + i) as usize] as f64;
                     let err = (got - want).abs();

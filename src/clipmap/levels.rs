@@ -49,6 +49,22 @@ impl GridRect {
 }
 
 impl LevelGrid {
+    /// (φ, θ) in radians of grid point (gx, gy), folded back onto the sphere: rows past a
+    /// pole (θ < 0 or θ > π) hold the point across it, as the GPU fills do (the CPU twin the
+    /// tests compare level textures with).
+    pub fn phi_theta_of(&self, gx: i64, gy: i64) -> (f64, f64) {
+        let mut phi = gx as f64 * self.dphi_rad;
+        let mut theta = gy as f64 * self.dtheta_rad;
+        if theta < 0.0 {
+            theta = -theta;
+            phi += PI;
+        } else if theta > PI {
+            theta = TAU - theta;
+            phi += PI;
+        }
+        (phi.rem_euclid(TAU), theta.clamp(0.0, PI))
+    }
+
     /// φ period of the grid in columns: S·2^k columns make 2π.
     pub fn period_x(&self) -> i64 {
         (self.size as i64) << self.phi_pow
@@ -191,6 +207,15 @@ impl LevelGrid {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn rows_past_a_pole_hold_the_point_across_it() {
+        let g = LevelGrid::for_viewer(3, 64, 0.5, 0.01, None);
+        let (phi, theta) = g.phi_theta_of(10, -4);
+        assert!((theta - 4.0 * g.dtheta_rad).abs() < 1e-12);
+        let expected = (10.0 * g.dphi_rad + PI).rem_euclid(TAU);
+        assert!((phi - expected).abs() < 1e-12);
+    }
 
     /// Every grid point of the new window is either in the old window or in a dirty rect, and
     /// no dirty point is counted twice.

@@ -12,7 +12,6 @@ pub mod shader;
 pub mod terrain;
 pub mod tiles;
 pub mod timing;
-pub mod upload;
 
 pub use context::GpuContext;
 pub use offscreen::{OffscreenFrame, RenderedFrame};
