@@ -478,7 +478,7 @@ impl App {
                     id,
                     screen,
                     egui::Rect::from_min_max(egui::pos2(0.0, 0.0), egui::pos2(1.0, 1.0)),
-                    egui::Color32::from_white_alpha(200),
+                    egui::Color32::from_white_alpha(235),
                 );
             }
             actions = panel.show(ui, &readout, &mut live);

@@ -477,7 +477,7 @@ fn stream_section(ui: &mut egui::Ui, st: &crate::render::dem_feed::FeedFrame, wa
         "streaming: loading"
     });
     ui.label(format!(
-        "queued {}   in flight {}   missing {} of {}",
+        "queued {}   in flight {}   missing {} of {} needed now",
         s.queued, s.in_flight, st.tiles_missing, st.tiles_needed
     ));
     ui.label(format!(
