@@ -714,8 +714,9 @@ impl Pyramid {
 }
 
 /// Linear interpolation from `a` to `b` that never leaves [min(a, b), max(a, b)]. The textbook
-/// `(1 − t)·a + t·b` rounds past both ends (a = b = 32767 gives 32767.000000000004 at t = 0.3),
-/// which puts a sample above the max plane that bounds it and outside the data's range.
+/// `(1 − t)·a + t·b` rounds past both ends (a = b = 32767 gives 32767.000000000004 at
+/// t = 0.3633), which puts a sample above the max plane that bounds it and outside the data's
+/// range.
 fn lerp_within(a: f64, b: f64, t: f64) -> f64 {
     (a + (b - a) * t).clamp(a.min(b), a.max(b))
 }
