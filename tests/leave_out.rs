@@ -164,8 +164,8 @@ fn check_scene(name: &str) {
     // bounds targeted it (drawn or waiting, or the coarser level the drawn ones blend into;
     // a level an early frame wanted may also never be filled if the selection moved on before
     // its tiles came), each filled level is written exactly once in full, and the settled
-    // view's levels are all there. Levels that only streaming-in frames targeted (while the camera's height came from
-    // a coarser tile, θ̃min was off) are counted apart.
+    // view's levels are all there. Levels that only streaming-in frames targeted (while the
+    // camera's height came from a coarser tile or from none, θ̃min was off) are counted apart.
     let final_targets = targeted_levels(sel);
     let mut filled = Vec::new();
     let mut transient = Vec::new();

@@ -636,9 +636,10 @@ fn move_direction_enu() -> impl Strategy<Value = DVec3> {
 
 /// A 1 mm move of the eye in any direction — across the antimeridian, over a pole, up, down —
 /// with the orientation kept, expressed again as camera parameters, moves every terrain point
-/// the camera sees by < 0.1 px (wherever parallax alone keeps it under that), and the image from the new parameters is the
-/// image of the moved pose within 1e-3 px. A jump here (a flipped heading convention at a pole,
-/// a longitude that does not wrap) is a visible snap of the whole view.
+/// the camera sees by < 0.1 px (wherever parallax alone keeps it under that), and the image from
+/// the new parameters is the image of the moved pose within 1e-3 px. A jump here (a flipped
+/// heading convention at a pole, a longitude that does not wrap) is a visible snap of the whole
+/// view.
 #[test]
 fn a_millimetre_move_moves_the_image_by_less_than_a_tenth_of_a_pixel() {
     let worst_shift = Worst::default();
