@@ -570,7 +570,7 @@ impl Pyramid {
         let top = if fc == 0.0 {
             v(r0, c0)?
         } else {
-            (1.0 - fc) * v(r0, c0)? + fc * v(r0, c1)?
+            lerp_within(v(r0, c0)?, v(r0, c1)?, fc)
         };
         if fr == 0.0 {
             return Ok(Some(top));
@@ -578,9 +578,9 @@ impl Pyramid {
         let bottom = if fc == 0.0 {
             v(r1, c0)?
         } else {
-            (1.0 - fc) * v(r1, c0)? + fc * v(r1, c1)?
+            lerp_within(v(r1, c0)?, v(r1, c1)?, fc)
         };
-        Ok(Some((1.0 - fr) * top + fr * bottom))
+        Ok(Some(lerp_within(top, bottom, fr)))
     }
 
     /// Bounds of the terrain over a region at a level, from the min/max planes: they hold for
@@ -711,4 +711,12 @@ impl Pyramid {
             pixels,
         }))
     }
+}
+
+/// Linear interpolation from `a` to `b` that never leaves [min(a, b), max(a, b)]. The textbook
+/// `(1 − t)·a + t·b` rounds past both ends (a = b = 32767 gives 32767.000000000004 at
+/// t = 0.3633), which puts a sample above the max plane that bounds it and outside the data's
+/// range.
+fn lerp_within(a: f64, b: f64, t: f64) -> f64 {
+    (a + (b - a) * t).clamp(a.min(b), a.max(b))
 }
