@@ -23,7 +23,8 @@ struct FrameUniforms {
     coarsest_level: u32,
     finest_level: u32,
     overlay: u32,
-    _pad0: u32,
+    // altitude − eye_height_m in f64, rounded: the eye's height is eye_height_m + this.
+    eye_height_lo_m: f32,
     _pad1: u32,
     _pad2: u32,
 }
@@ -145,7 +146,11 @@ fn vs_main(v: RingVertex) -> VertexOut {
     // Position relative to the eye in view space: the eye is at (0, 0, R + h_eye).
     // z = (h − h_eye) − (R + h)·(1 − cos θ̃) (DESIGN.md), with 1 − cos θ̃ from f64.
     let r = frame.radius_m + h;
-    let rel = vec3<f32>(r * v.p_tilde.x, r * v.p_tilde.y, (h - frame.eye_height_m) - r * v.one_minus_cos);
+    let rel = vec3<f32>(
+        r * v.p_tilde.x,
+        r * v.p_tilde.y,
+        ((h - frame.eye_height_m) - frame.eye_height_lo_m) - r * v.one_minus_cos,
+    );
     var out: VertexOut;
     out.clip = frame.clip_from_view * vec4<f32>(rel, 1.0);
     out.map_pos = d;
@@ -238,7 +243,11 @@ fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
 @vertex
 fn vs_passthrough(v: RingVertex) -> @builtin(position) vec4<f32> {
     let r = frame.radius_m;
-    let rel = vec3<f32>(r * v.p_tilde.x, r * v.p_tilde.y, -frame.eye_height_m - r * v.one_minus_cos);
+    let rel = vec3<f32>(
+        r * v.p_tilde.x,
+        r * v.p_tilde.y,
+        (-frame.eye_height_m - frame.eye_height_lo_m) - r * v.one_minus_cos,
+    );
     return frame.clip_from_view * vec4<f32>(rel, 1.0);
 }
 

@@ -45,7 +45,10 @@ pub mod gpu_data {
         pub coarsest_level: u32,
         pub finest_level: u32,
         pub overlay: u32,
-        pub _pad: [u32; 3],
+        /// The eye's altitude minus `eye_height_m` (f64 − f32): a 1 mm climb at 9 km is below
+        /// one f32 step of the altitude, so the shader adds this low part after the difference.
+        pub eye_height_lo_m: f32,
+        pub _pad: [u32; 2],
     }
 
     /// GPU twin: `LevelUniforms` in `shaders/terrain.wgsl`.
@@ -642,7 +645,8 @@ impl TerrainRenderer {
             coarsest_level: selection.coarsest,
             finest_level: selection.finest,
             overlay: self.overlays.bits(),
-            _pad: [0; 3],
+            eye_height_lo_m: (camera.altitude_m - camera.altitude_m as f32 as f64) as f32,
+            _pad: [0; 2],
         };
         queue.write_buffer(&self.frame_buffer, 0, bytemuck::bytes_of(&uniforms));
 
