@@ -455,6 +455,12 @@ fn render(args: &RenderArgs) -> anyhow::Result<ExitCode> {
 
 fn viewer(args: &ViewerArgs) -> anyhow::Result<ExitCode> {
     find_scene(&args.scene)?;
+    if args.overlay == Some(Overlay::Error) {
+        bail!(
+            "--overlay error is for `globe render`; in the viewer press the panel's \
+             \"error overlay (ρ)\" button (it measures the view on the CPU, on demand)"
+        );
+    }
     let options = globe::ui::ViewerOptions {
         scene: args.scene.clone(),
         settings: args.mesh.settings()?,
