@@ -47,6 +47,9 @@ pub struct FrameRecord {
     pub cpu_ms: f64,
     pub frame_ms: f64,
     pub gpu_ms: Option<f64>,
+    /// The compute fill's GPU time, in frames that filled texels.
+    pub fill_gpu_ms: Option<f64>,
+    pub texels_filled: u64,
     pub triangles: u64,
     pub levels_drawn: u32,
     pub levels_waiting: u32,
@@ -157,6 +160,8 @@ pub fn run(
             cpu_ms: f.cpu_ms,
             frame_ms: f.frame_ms,
             gpu_ms: f.gpu_ms,
+            fill_gpu_ms: f.fill_gpu_ms,
+            texels_filled: f.info.texels_filled,
             triangles: f.info.draw.triangles,
             levels_drawn: if f.info.selection.any_drawn() {
                 f.info.selection.finest - f.info.selection.coarsest + 1
@@ -178,6 +183,8 @@ pub fn run(
                 cpu_ms: f.cpu_ms,
                 frame_ms: f.frame_ms,
                 gpu_ms: f.gpu_ms,
+                fill_gpu_ms: f.fill_gpu_ms,
+                texels_filled: f.info.texels_filled,
                 triangles: f.info.draw.triangles,
                 levels_drawn: f.info.selection.finest - f.info.selection.coarsest + 1,
                 levels_waiting: 0,
@@ -276,17 +283,20 @@ impl BenchRun {
     /// Per-frame records as CSV (hitch analysis: one row per measured frame).
     pub fn frames_csv(&self) -> String {
         let mut out = String::from(
-            "frame,altitude_m,cpu_ms,frame_ms,gpu_ms,triangles,levels_drawn,levels_waiting,\
-             tiles_missing,queued,in_flight,tiles_loaded,uploads,cache_bytes\n",
+            "frame,altitude_m,cpu_ms,frame_ms,gpu_ms,fill_gpu_ms,texels_filled,triangles,\
+             levels_drawn,levels_waiting,tiles_missing,queued,in_flight,tiles_loaded,uploads,\
+             cache_bytes\n",
         );
         for (i, f) in self.frames.iter().enumerate() {
             let s = f.stream.clone().unwrap_or_default();
             out.push_str(&format!(
-                "{i},{:.3},{:.4},{:.4},{},{},{},{},{},{},{},{},{},{}\n",
+                "{i},{:.3},{:.4},{:.4},{},{},{},{},{},{},{},{},{},{},{},{}\n",
                 f.altitude_m,
                 f.cpu_ms,
                 f.frame_ms,
                 f.gpu_ms.map_or(String::new(), |g| format!("{g:.4}")),
+                f.fill_gpu_ms.map_or(String::new(), |g| format!("{g:.4}")),
+                f.texels_filled,
                 f.triangles,
                 f.levels_drawn,
                 f.levels_waiting,
@@ -328,6 +338,18 @@ impl BenchRun {
             ("gpu_ms".into(), num(gpu.map(|s| s.0))),
             ("gpu_ms_min".into(), num(gpu.map(|s| s.1))),
             ("gpu_ms_max".into(), num(gpu.map(|s| s.2))),
+            (
+                "fill_gpu_ms".into(),
+                num(summary(&self.values(|f| f.fill_gpu_ms)).map(|s| s.0)),
+            ),
+            (
+                "texels_filled".into(),
+                self.frames
+                    .iter()
+                    .map(|f| f.texels_filled)
+                    .sum::<u64>()
+                    .to_string(),
+            ),
             ("triangles".into(), med(&|f| Some(f.triangles as f64))),
             ("levels_drawn".into(), med(&|f| Some(f.levels_drawn as f64))),
             (

@@ -580,6 +580,13 @@ fn print_bench(run: &globe::bench::BenchRun) {
         }
         None => println!("  GPU ms: the adapter has no timestamp queries"),
     }
+    let fills: Vec<f64> = run.frames.iter().filter_map(|f| f.fill_gpu_ms).collect();
+    if let Some((m, lo, hi)) = globe::bench::summary(&fills) {
+        println!(
+            "  GPU ms (compute fill, {} frames that filled) median {m:.3}  min {lo:.3}  max {hi:.3}",
+            fills.len()
+        );
+    }
     if let Some(s) = run.last_stream() {
         println!(
             "  tiles requested {} loaded {} cancelled {} failed {} (retries {})",

@@ -194,6 +194,7 @@ impl DemFeed {
         encoder: &mut wgpu::CommandEncoder,
         levels: &[LevelJob],
         nadir_phi_theta: (f64, f64),
+        timestamps: Option<wgpu::ComputePassTimestampWrites<'_>>,
     ) -> (Vec<bool>, u64) {
         self.frame += 1;
         let frame = self.frame;
@@ -279,7 +280,7 @@ impl DemFeed {
             }
             filled.push(ready);
         }
-        let texels = self.fill.encode(queue, encoder, &jobs);
+        let texels = self.fill.encode(queue, encoder, &jobs, timestamps);
 
         self.streamer.want(&missing);
         let stream = self.streamer.stats();

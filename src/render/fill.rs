@@ -142,6 +142,7 @@ impl FillPass {
         encoder: &mut wgpu::CommandEncoder,
         planet: &AnalyticPlanet,
         jobs: &[FillJob],
+        timestamps: Option<wgpu::ComputePassTimestampWrites<'_>>,
     ) -> u64 {
         assert!(
             jobs.len() as u32 <= self.capacity,
@@ -164,7 +165,7 @@ impl FillPass {
         queue.write_buffer(&self.params, 0, &bytes);
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some("clipmap fill"),
-            timestamp_writes: None,
+            timestamp_writes: timestamps,
         });
         pass.set_pipeline(&self.pipeline);
         let mut texels = 0;

@@ -149,6 +149,8 @@ pub struct TimedFrame {
     pub frame_ms: f64,
     /// The terrain pass on the GPU, from timestamp queries (None without them).
     pub gpu_ms: Option<f64>,
+    /// The frame's compute fill on the GPU (None without timestamps or without a fill).
+    pub fill_gpu_ms: Option<f64>,
 }
 
 impl OffscreenFrame {
@@ -162,7 +164,9 @@ impl OffscreenFrame {
     ) -> Result<TimedFrame, RenderError> {
         let started = std::time::Instant::now();
         let mut encoder = ctx.device.create_command_encoder(&Default::default());
+        renderer.fill_timestamps = timer.map(|t| t.query_set().clone());
         let info = renderer.prepare(&ctx.queue, &mut encoder, camera, self.width, self.height);
+        renderer.fill_timestamps = None;
         let color_view = self.color.create_view(&Default::default());
         let depth_view = self.depth.create_view(&Default::default());
         renderer.encode_pass(
@@ -178,11 +182,14 @@ impl OffscreenFrame {
         }
         ctx.queue.submit([encoder.finish()]);
         let cpu_ms = started.elapsed().as_secs_f64() * 1e3;
-        let gpu_ms = match timer {
-            Some(t) => Some(t.read_ms(ctx)?),
+        let (gpu_ms, fill_gpu_ms) = match timer {
+            Some(t) => {
+                let (pass, fill) = t.read_ms(ctx)?;
+                (Some(pass), (info.texels_filled > 0).then_some(fill))
+            }
             None => {
                 ctx.wait_idle()?;
-                None
+                (None, None)
             }
         };
         Ok(TimedFrame {
@@ -190,6 +197,7 @@ impl OffscreenFrame {
             cpu_ms,
             frame_ms: started.elapsed().as_secs_f64() * 1e3,
             gpu_ms,
+            fill_gpu_ms,
         })
     }
 }

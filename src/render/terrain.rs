@@ -128,6 +128,8 @@ pub struct TerrainRenderer {
     passthrough: wgpu::RenderPipeline,
     /// Debug/benchmark: draw with the pass-through pipeline instead of the terrain's.
     pub use_passthrough: bool,
+    /// Benchmark: a timestamp query set whose queries 2–3 bracket the frame's compute fill.
+    pub fill_timestamps: Option<wgpu::QuerySet>,
     fill: FillPass,
     /// The map-space window each level texture currently holds (None: never filled).
     grids: Vec<Option<LevelGrid>>,
@@ -345,6 +347,7 @@ impl TerrainRenderer {
             pipeline,
             passthrough,
             use_passthrough: false,
+            fill_timestamps: None,
             fill,
             grids,
             feed,
@@ -523,6 +526,14 @@ impl TerrainRenderer {
             );
             targets.push((grid, grid.dirty_since(old.as_ref())));
         }
+        let timestamps = self
+            .fill_timestamps
+            .as_ref()
+            .map(|q| wgpu::ComputePassTimestampWrites {
+                query_set: q,
+                beginning_of_pass_write_index: Some(2),
+                end_of_pass_write_index: Some(3),
+            });
         let (texels_filled, stream) = match &self.terrain {
             Terrain::Analytic(planet) => {
                 let jobs: Vec<FillJob> = targets
@@ -537,7 +548,10 @@ impl TerrainRenderer {
                 for (grid, _) in &targets {
                     self.grids[grid.level as usize] = Some(*grid);
                 }
-                (self.fill.encode(queue, encoder, planet, &jobs), None)
+                (
+                    self.fill.encode(queue, encoder, planet, &jobs, timestamps),
+                    None,
+                )
             }
             Terrain::Dem(_) => {
                 let feed = self.feed.as_mut().expect("a DEM has a feed");
@@ -548,7 +562,8 @@ impl TerrainRenderer {
                         rects: rects.clone(),
                     })
                     .collect();
-                let (filled, texels) = feed.update(queue, encoder, &jobs, (phi_v, theta_v));
+                let (filled, texels) =
+                    feed.update(queue, encoder, &jobs, (phi_v, theta_v), timestamps);
                 for ((grid, _), ok) in targets.iter().zip(&filled) {
                     if *ok {
                         self.grids[grid.level as usize] = Some(*grid);

@@ -353,6 +353,7 @@ impl DemFillPass {
         queue: &wgpu::Queue,
         encoder: &mut wgpu::CommandEncoder,
         jobs: &[DemFillParams],
+        timestamps: Option<wgpu::ComputePassTimestampWrites<'_>>,
     ) -> u64 {
         let jobs = &jobs[..jobs.len().min(self.capacity as usize)];
         if jobs.is_empty() {
@@ -368,7 +369,7 @@ impl DemFillPass {
         queue.write_buffer(&self.params, 0, &bytes);
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some("clipmap DEM fill"),
-            timestamp_writes: None,
+            timestamp_writes: timestamps,
         });
         pass.set_pipeline(&self.pipeline);
         let mut texels = 0;

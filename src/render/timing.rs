@@ -1,5 +1,6 @@
-//! GPU time of the terrain pass from timestamp queries, where the adapter has them
-//! (`wgpu::Features::TIMESTAMP_QUERY`); the wall clock is never passed off as GPU time.
+//! GPU time per pass from timestamp queries, where the adapter has them
+//! (`wgpu::Features::TIMESTAMP_QUERY`): queries 0–1 bracket the terrain pass, 2–3 the frame's
+//! compute fill (when it has one). The wall clock is never passed off as GPU time.
 
 use super::{GpuContext, RenderError};
 
@@ -23,12 +24,12 @@ impl GpuTimer {
         let queries = ctx.device.create_query_set(&wgpu::QuerySetDescriptor {
             label: Some("pass timestamps"),
             ty: wgpu::QueryType::Timestamp,
-            count: 2,
+            count: 4,
         });
         let buffer = |label, usage| {
             ctx.device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some(label),
-                size: 16,
+                size: 32,
                 usage,
                 mapped_at_creation: false,
             })
@@ -56,14 +57,20 @@ impl GpuTimer {
         }
     }
 
-    /// Records the copy of the timestamps (after the timed pass, in the same encoder).
-    pub fn resolve(&self, encoder: &mut wgpu::CommandEncoder) {
-        encoder.resolve_query_set(&self.queries, 0..2, &self.resolve, 0);
-        encoder.copy_buffer_to_buffer(&self.resolve, 0, &self.readback, 0, 16);
+    /// The query set, for the renderer to time its compute fill with (queries 2–3).
+    pub fn query_set(&self) -> &wgpu::QuerySet {
+        &self.queries
     }
 
-    /// The timed pass's duration in milliseconds, once the submission has finished.
-    pub fn read_ms(&self, ctx: &GpuContext) -> Result<f64, RenderError> {
+    /// Records the copy of the timestamps (after the timed passes, in the same encoder).
+    pub fn resolve(&self, encoder: &mut wgpu::CommandEncoder) {
+        encoder.resolve_query_set(&self.queries, 0..4, &self.resolve, 0);
+        encoder.copy_buffer_to_buffer(&self.resolve, 0, &self.readback, 0, 32);
+    }
+
+    /// The terrain pass's and the fill's durations in milliseconds, once the submission has
+    /// finished (the fill's is meaningful only in a frame that had one).
+    pub fn read_ms(&self, ctx: &GpuContext) -> Result<(f64, f64), RenderError> {
         let (tx, rx) = std::sync::mpsc::channel();
         self.readback.map_async(wgpu::MapMode::Read, .., move |r| {
             let _ = tx.send(r);
@@ -77,10 +84,11 @@ impl GpuTimer {
                 .readback
                 .get_mapped_range(..)
                 .map_err(|e| RenderError::Readback(e.to_string()))?;
-            let t: &[u64] = bytemuck::cast_slice(&data[..16]);
-            t[1].wrapping_sub(t[0])
+            let t: &[u64] = bytemuck::cast_slice(&data[..32]);
+            (t[1].wrapping_sub(t[0]), t[3].wrapping_sub(t[2]))
         };
         self.readback.unmap();
-        Ok(ticks as f64 * self.period_ns * 1e-6)
+        let ms = |ticks: u64| ticks as f64 * self.period_ns * 1e-6;
+        Ok((ms(ticks.0), ms(ticks.1)))
     }
 }
