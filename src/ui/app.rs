@@ -92,6 +92,16 @@ fn terrain_height_m(planet: &Terrain, lat_deg: f64, lon_deg: f64) -> f64 {
     planet.height_m(sphere::unit_vector(phi, theta))
 }
 
+/// The ground height the controls steer by: from the streamed tiles at hand when the terrain is
+/// a DEM (the render thread never waits for the file), else the terrain function. Jumps to a
+/// scene use the terrain function itself, to place the camera exactly.
+fn ground<'a>(gpu: Option<&'a Gpu>, planet: &'a Terrain) -> impl Fn(f64, f64) -> f64 + Copy + 'a {
+    move |lat, lon| match gpu.and_then(|g| g.terrain.feed()) {
+        Some(feed) => feed.height_at_m(lat, lon),
+        None => terrain_height_m(planet, lat, lon),
+    }
+}
+
 /// Everything that needs the window: created in `resumed`.
 struct Gpu {
     // Declared (and so dropped) before `window`.
@@ -387,9 +397,8 @@ impl App {
         self.last_frame = Some(now);
         self.stats.record(dt_s);
 
-        let planet = &self.planet;
-        let terrain = |lat: f64, lon: f64| terrain_height_m(planet, lat, lon);
-        let radius_m = planet.radius_m();
+        let terrain = ground(self.gpu.as_ref(), &self.planet);
+        let radius_m = self.planet.radius_m();
         if let Some(started) = self.flight_started {
             let t = started.elapsed().as_secs_f64() / FLIGHT_SECONDS;
             self.camera = crate::scenes::flight::camera(t, terrain);
@@ -779,8 +788,7 @@ impl App {
             .as_ref()
             .map_or(800.0, |g| f64::from(g.config.height));
         let radius_m = self.radius_m();
-        let planet = &self.planet;
-        let terrain = |lat: f64, lon: f64| terrain_height_m(planet, lat, lon);
+        let terrain = ground(self.gpu.as_ref(), &self.planet);
         match drag {
             Drag::Look => controls::look_drag(&mut self.camera, dx, dy, height_px),
             Drag::Pan => controls::pan_drag(&mut self.camera, dx, dy, height_px, radius_m, terrain),
@@ -793,10 +801,8 @@ impl App {
             // Touchpads: about 40 pixels per notch.
             MouseScrollDelta::PixelDelta(p) => p.y / 40.0,
         };
-        let planet = &self.planet;
-        controls::zoom(&mut self.camera, notches, |lat, lon| {
-            terrain_height_m(planet, lat, lon)
-        });
+        let terrain = ground(self.gpu.as_ref(), &self.planet);
+        controls::zoom(&mut self.camera, notches, terrain);
     }
 }
 
