@@ -57,6 +57,29 @@ pub struct FrameRecord {
     pub stream: Option<FeedFrame>,
 }
 
+impl FrameRecord {
+    fn of(f: &crate::render::offscreen::TimedFrame, camera: &Camera) -> Self {
+        let sel = &f.info.selection;
+        Self {
+            cpu_ms: f.cpu_ms,
+            frame_ms: f.frame_ms,
+            gpu_ms: f.gpu_ms,
+            fill_gpu_ms: f.fill_gpu_ms,
+            texels_filled: f.info.texels_filled,
+            triangles: f.info.draw.triangles,
+            levels_drawn: if sel.any_drawn() {
+                sel.finest - sel.coarsest + 1
+            } else {
+                0
+            },
+            levels_waiting: sel.waiting().len() as u32,
+            altitude_m: camera.altitude_m,
+            stream: f.info.stream.clone(),
+        }
+    }
+}
+
+/// One benchmark run's frames and findings.
 pub struct BenchRun {
     pub adapter: String,
     pub options: BenchOptions,
@@ -156,22 +179,7 @@ pub fn run(
         }
         let camera = camera_of(i);
         let f = target.draw_timed(ctx, &mut renderer, &camera, timer.as_ref())?;
-        frames.push(FrameRecord {
-            cpu_ms: f.cpu_ms,
-            frame_ms: f.frame_ms,
-            gpu_ms: f.gpu_ms,
-            fill_gpu_ms: f.fill_gpu_ms,
-            texels_filled: f.info.texels_filled,
-            triangles: f.info.draw.triangles,
-            levels_drawn: if f.info.selection.any_drawn() {
-                f.info.selection.finest - f.info.selection.coarsest + 1
-            } else {
-                0
-            },
-            levels_waiting: f.info.selection.waiting().len() as u32,
-            altitude_m: camera.altitude_m,
-            stream: f.info.stream.clone(),
-        });
+        frames.push(FrameRecord::of(&f, &camera));
         progress(i + 1, options.frames);
     }
     let mut passthrough = Vec::new();
@@ -179,18 +187,7 @@ pub fn run(
         renderer.use_passthrough = true;
         for _ in 0..options.frames {
             let f = target.draw_timed(ctx, &mut renderer, camera, timer.as_ref())?;
-            passthrough.push(FrameRecord {
-                cpu_ms: f.cpu_ms,
-                frame_ms: f.frame_ms,
-                gpu_ms: f.gpu_ms,
-                fill_gpu_ms: f.fill_gpu_ms,
-                texels_filled: f.info.texels_filled,
-                triangles: f.info.draw.triangles,
-                levels_drawn: f.info.selection.finest - f.info.selection.coarsest + 1,
-                levels_waiting: 0,
-                altitude_m: camera.altitude_m,
-                stream: None,
-            });
+            passthrough.push(FrameRecord::of(&f, camera));
         }
         renderer.use_passthrough = false;
     }

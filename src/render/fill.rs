@@ -32,13 +32,74 @@ use gpu_data::FillParams;
 
 const WORKGROUP: u32 = 8;
 
+/// Per-dispatch parameter blocks of a compute fill: one uniform buffer bound with a dynamic
+/// offset, one block per dispatch at the device's offset alignment (both fills use it).
+pub(super) struct DispatchParams {
+    buffer: wgpu::Buffer,
+    size: u64,
+    stride: u64,
+    capacity: u32,
+}
+
+impl DispatchParams {
+    /// Room for `capacity` blocks of `T`.
+    pub(super) fn new<T: bytemuck::Pod>(device: &wgpu::Device, label: &str, capacity: u32) -> Self {
+        let size = std::mem::size_of::<T>() as u64;
+        let align = device.limits().min_uniform_buffer_offset_alignment as u64;
+        let stride = size.div_ceil(align) * align;
+        let buffer = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some(label),
+            size: stride * capacity as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        Self {
+            buffer,
+            size,
+            stride,
+            capacity,
+        }
+    }
+
+    /// The bind-group layout entry's minimum size (one block).
+    pub(super) fn min_binding_size(&self) -> Option<wgpu::BufferSize> {
+        wgpu::BufferSize::new(self.size)
+    }
+
+    /// The binding: one block, moved by the dynamic offset.
+    pub(super) fn binding(&self) -> wgpu::BindingResource<'_> {
+        wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+            buffer: &self.buffer,
+            offset: 0,
+            size: wgpu::BufferSize::new(self.size),
+        })
+    }
+
+    pub(super) fn capacity(&self) -> u32 {
+        self.capacity
+    }
+
+    /// Writes the blocks (at most `capacity`; the rest are the caller's to split over frames).
+    pub(super) fn write<T: bytemuck::Pod>(&self, queue: &wgpu::Queue, blocks: &[T]) {
+        let mut bytes = vec![0u8; (self.stride * blocks.len() as u64) as usize];
+        for (i, b) in blocks.iter().enumerate() {
+            let at = i * self.stride as usize;
+            bytes[at..at + self.size as usize].copy_from_slice(bytemuck::bytes_of(b));
+        }
+        queue.write_buffer(&self.buffer, 0, &bytes);
+    }
+
+    /// The dynamic offset of block `i`.
+    pub(super) fn offset(&self, i: usize) -> u32 {
+        (i as u64 * self.stride) as u32
+    }
+}
+
 /// Pipeline and per-dispatch parameter buffer of the analytic fill.
 pub struct FillPass {
     pipeline: wgpu::ComputePipeline,
     layout: wgpu::BindGroupLayout,
-    params: wgpu::Buffer,
-    stride: u64,
-    capacity: u32,
+    params: DispatchParams,
     bind_group: Option<wgpu::BindGroup>,
 }
 
@@ -55,9 +116,7 @@ impl FillPass {
             label: Some("fill_analytic.wgsl"),
             source: wgpu::ShaderSource::Wgsl(shader::assemble(shader::FILL_ANALYTIC).into()),
         });
-        let size = std::mem::size_of::<FillParams>() as u64;
-        let align = device.limits().min_uniform_buffer_offset_alignment as u64;
-        let stride = size.div_ceil(align) * align;
+        let params = DispatchParams::new::<FillParams>(device, "fill params", capacity);
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("fill layout"),
             entries: &[
@@ -67,7 +126,7 @@ impl FillPass {
                     ty: wgpu::BindingType::Buffer {
                         ty: wgpu::BufferBindingType::Uniform,
                         has_dynamic_offset: true,
-                        min_binding_size: wgpu::BufferSize::new(size),
+                        min_binding_size: params.min_binding_size(),
                     },
                     count: None,
                 },
@@ -96,18 +155,10 @@ impl FillPass {
             compilation_options: Default::default(),
             cache: None,
         });
-        let params = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("fill params"),
-            size: stride * capacity as u64,
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
         Self {
             pipeline,
             layout,
             params,
-            stride,
-            capacity,
             bind_group: None,
         }
     }
@@ -120,11 +171,7 @@ impl FillPass {
             entries: &[
                 wgpu::BindGroupEntry {
                     binding: 0,
-                    resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-                        buffer: &self.params,
-                        offset: 0,
-                        size: wgpu::BufferSize::new(std::mem::size_of::<FillParams>() as u64),
-                    }),
+                    resource: self.params.binding(),
                 },
                 wgpu::BindGroupEntry {
                     binding: 1,
@@ -145,7 +192,7 @@ impl FillPass {
         timestamps: Option<wgpu::ComputePassTimestampWrites<'_>>,
     ) -> u64 {
         assert!(
-            jobs.len() as u32 <= self.capacity,
+            jobs.len() as u32 <= self.params.capacity(),
             "more fill jobs than the parameter buffer holds"
         );
         if jobs.is_empty() {
@@ -155,14 +202,8 @@ impl FillPass {
             .bind_group
             .as_ref()
             .expect("fill target set before encoding");
-        let mut bytes = vec![0u8; (self.stride * jobs.len() as u64) as usize];
-        for (i, job) in jobs.iter().enumerate() {
-            let p = fill_params(planet, job);
-            let at = i * self.stride as usize;
-            bytes[at..at + std::mem::size_of::<FillParams>()]
-                .copy_from_slice(bytemuck::bytes_of(&p));
-        }
-        queue.write_buffer(&self.params, 0, &bytes);
+        let blocks: Vec<FillParams> = jobs.iter().map(|job| fill_params(planet, job)).collect();
+        self.params.write(queue, &blocks);
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some("clipmap fill"),
             timestamp_writes: timestamps,
@@ -170,7 +211,7 @@ impl FillPass {
         pass.set_pipeline(&self.pipeline);
         let mut texels = 0;
         for (i, job) in jobs.iter().enumerate() {
-            pass.set_bind_group(0, bind_group, &[(i as u64 * self.stride) as u32]);
+            pass.set_bind_group(0, bind_group, &[self.params.offset(i)]);
             pass.dispatch_workgroups(
                 job.rect.width.div_ceil(WORKGROUP),
                 job.rect.height.div_ceil(WORKGROUP),

@@ -105,18 +105,7 @@ impl OffscreenFrame {
         renderer: &mut TerrainRenderer,
         camera: &Camera,
     ) -> Result<RenderedFrame, RenderError> {
-        let mut encoder = ctx.device.create_command_encoder(&Default::default());
-        let info = renderer.prepare(&ctx.queue, &mut encoder, camera, self.width, self.height);
-        let color_view = self.color.create_view(&Default::default());
-        let depth_view = self.depth.create_view(&Default::default());
-        renderer.encode_pass(
-            &mut encoder,
-            &info,
-            &color_view,
-            &depth_view,
-            wgpu::StoreOp::Store,
-            None,
-        );
+        let (mut encoder, info) = self.encode(ctx, renderer, camera, wgpu::StoreOp::Store, None);
         let color_buf = ReadbackBuffer::new(&ctx.device, self.width, self.height, 4);
         let depth_buf = ReadbackBuffer::new(&ctx.device, self.width, self.height, 4);
         color_buf.copy_from(&mut encoder, &self.color, wgpu::TextureAspect::All);
@@ -154,15 +143,16 @@ pub struct TimedFrame {
 }
 
 impl OffscreenFrame {
-    /// Renders `camera` with whatever data has arrived, waits for the GPU, and times it.
-    pub fn draw_timed(
+    /// Records one frame into a new encoder: the renderer's preparation (streaming, fills) and
+    /// the terrain pass into this target, timed by `timer` where given.
+    fn encode(
         &self,
         ctx: &GpuContext,
         renderer: &mut TerrainRenderer,
         camera: &Camera,
+        depth_store: wgpu::StoreOp,
         timer: Option<&super::timing::GpuTimer>,
-    ) -> Result<TimedFrame, RenderError> {
-        let started = std::time::Instant::now();
+    ) -> (wgpu::CommandEncoder, FrameInfo) {
         let mut encoder = ctx.device.create_command_encoder(&Default::default());
         renderer.fill_timestamps = timer.map(|t| t.query_set().clone());
         let info = renderer.prepare(&ctx.queue, &mut encoder, camera, self.width, self.height);
@@ -174,9 +164,22 @@ impl OffscreenFrame {
             &info,
             &color_view,
             &depth_view,
-            wgpu::StoreOp::Discard,
+            depth_store,
             timer.map(|t| t.pass_writes()),
         );
+        (encoder, info)
+    }
+
+    /// Renders `camera` with whatever data has arrived, waits for the GPU, and times it.
+    pub fn draw_timed(
+        &self,
+        ctx: &GpuContext,
+        renderer: &mut TerrainRenderer,
+        camera: &Camera,
+        timer: Option<&super::timing::GpuTimer>,
+    ) -> Result<TimedFrame, RenderError> {
+        let started = std::time::Instant::now();
+        let (mut encoder, info) = self.encode(ctx, renderer, camera, wgpu::StoreOp::Discard, timer);
         if let Some(t) = timer {
             t.resolve(&mut encoder);
         }

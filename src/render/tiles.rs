@@ -14,6 +14,7 @@ use wgpu::util::DeviceExt;
 use crate::dem::pyramid::Pyramid;
 use crate::stream::{TileData, TileKey};
 
+use super::fill::DispatchParams;
 use super::shader;
 
 pub mod gpu_data {
@@ -218,9 +219,7 @@ impl GpuTileCache {
 pub struct DemFillPass {
     pipeline: wgpu::ComputePipeline,
     layout: wgpu::BindGroupLayout,
-    params: wgpu::Buffer,
-    stride: u64,
-    capacity: u32,
+    params: DispatchParams,
     bind_group: Option<wgpu::BindGroup>,
 }
 
@@ -230,9 +229,7 @@ impl DemFillPass {
             label: Some("fill_dem.wgsl"),
             source: wgpu::ShaderSource::Wgsl(shader::assemble(shader::FILL_DEM).into()),
         });
-        let size = std::mem::size_of::<DemFillParams>() as u64;
-        let align = device.limits().min_uniform_buffer_offset_alignment as u64;
-        let stride = size.div_ceil(align) * align;
+        let params = DispatchParams::new::<DemFillParams>(device, "DEM fill params", capacity);
         let entry = |binding, ty| wgpu::BindGroupLayoutEntry {
             binding,
             visibility: wgpu::ShaderStages::COMPUTE,
@@ -247,7 +244,7 @@ impl DemFillPass {
                     wgpu::BindingType::Buffer {
                         ty: wgpu::BufferBindingType::Uniform,
                         has_dynamic_offset: true,
-                        min_binding_size: wgpu::BufferSize::new(size),
+                        min_binding_size: params.min_binding_size(),
                     },
                 ),
                 entry(
@@ -289,18 +286,10 @@ impl DemFillPass {
             compilation_options: Default::default(),
             cache: None,
         });
-        let params = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("DEM fill params"),
-            size: stride * capacity as u64,
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
         Self {
             pipeline,
             layout,
             params,
-            stride,
-            capacity,
             bind_group: None,
         }
     }
@@ -312,37 +301,28 @@ impl DemFillPass {
         heights: &wgpu::TextureView,
         tiles: &GpuTileCache,
     ) {
-        self.bind_group =
-            Some(
-                device.create_bind_group(&wgpu::BindGroupDescriptor {
-                    label: Some("DEM fill bind group"),
-                    layout: &self.layout,
-                    entries: &[
-                        wgpu::BindGroupEntry {
-                            binding: 0,
-                            resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-                                buffer: &self.params,
-                                offset: 0,
-                                size: wgpu::BufferSize::new(
-                                    std::mem::size_of::<DemFillParams>() as u64
-                                ),
-                            }),
-                        },
-                        wgpu::BindGroupEntry {
-                            binding: 1,
-                            resource: wgpu::BindingResource::TextureView(heights),
-                        },
-                        wgpu::BindGroupEntry {
-                            binding: 2,
-                            resource: wgpu::BindingResource::TextureView(&tiles.view),
-                        },
-                        wgpu::BindGroupEntry {
-                            binding: 3,
-                            resource: tiles.page.as_entire_binding(),
-                        },
-                    ],
-                }),
-            );
+        self.bind_group = Some(device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("DEM fill bind group"),
+            layout: &self.layout,
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: self.params.binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: wgpu::BindingResource::TextureView(heights),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 2,
+                    resource: wgpu::BindingResource::TextureView(&tiles.view),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 3,
+                    resource: tiles.page.as_entire_binding(),
+                },
+            ],
+        }));
     }
 
     /// Writes the parameters and records one dispatch per job; returns texels written. Jobs
@@ -355,18 +335,12 @@ impl DemFillPass {
         jobs: &[DemFillParams],
         timestamps: Option<wgpu::ComputePassTimestampWrites<'_>>,
     ) -> u64 {
-        let jobs = &jobs[..jobs.len().min(self.capacity as usize)];
+        let jobs = &jobs[..jobs.len().min(self.params.capacity() as usize)];
         if jobs.is_empty() {
             return 0;
         }
         let bind_group = self.bind_group.as_ref().expect("DEM fill bound before use");
-        let mut bytes = vec![0u8; (self.stride * jobs.len() as u64) as usize];
-        for (i, p) in jobs.iter().enumerate() {
-            let at = i * self.stride as usize;
-            bytes[at..at + std::mem::size_of::<DemFillParams>()]
-                .copy_from_slice(bytemuck::bytes_of(p));
-        }
-        queue.write_buffer(&self.params, 0, &bytes);
+        self.params.write(queue, jobs);
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some("clipmap DEM fill"),
             timestamp_writes: timestamps,
@@ -374,7 +348,7 @@ impl DemFillPass {
         pass.set_pipeline(&self.pipeline);
         let mut texels = 0;
         for (i, p) in jobs.iter().enumerate() {
-            pass.set_bind_group(0, bind_group, &[(i as u64 * self.stride) as u32]);
+            pass.set_bind_group(0, bind_group, &[self.params.offset(i)]);
             pass.dispatch_workgroups(
                 p.extent[0].div_ceil(WORKGROUP),
                 p.extent[1].div_ceil(WORKGROUP),
@@ -386,7 +360,7 @@ impl DemFillPass {
     }
 
     pub fn capacity(&self) -> u32 {
-        self.capacity
+        self.params.capacity()
     }
 }
 
