@@ -73,7 +73,6 @@ pub struct DemFeed {
     aux_missing: RefCell<HashMap<TileKey, Priority>>,
     errors: VecDeque<String>,
     pub last: FeedFrame,
-    started: Instant,
     /// (when, bytes read then) of the last rate sample.
     rate_sample: (Instant, u64),
     read_mb_per_s: f64,
@@ -106,7 +105,6 @@ impl DemFeed {
             aux_missing: RefCell::new(HashMap::new()),
             errors: VecDeque::new(),
             last: FeedFrame::default(),
-            started: Instant::now(),
             rate_sample: (Instant::now(), 0),
             read_mb_per_s: 0.0,
         })
@@ -118,11 +116,6 @@ impl DemFeed {
 
     pub fn settings(&self) -> &StreamSettings {
         &self.settings
-    }
-
-    /// Seconds since the feed started (for MB/s).
-    pub fn age_s(&self) -> f64 {
-        self.started.elapsed().as_secs_f64()
     }
 
     fn key(&self, level: usize, row: usize, col: usize) -> TileKey {
@@ -201,12 +194,7 @@ impl DemFeed {
         for done in self.streamer.poll() {
             match done {
                 Completion::Loaded(tile) => self.cache.insert(tile),
-                Completion::Failed(key, e) => {
-                    self.errors.push_back(format!("{key}: {e}"));
-                    if self.errors.len() > 8 {
-                        self.errors.pop_front();
-                    }
-                }
+                Completion::Failed(key, e) => self.note_error(&format!("{key}: {e}")),
                 Completion::Cancelled(_) => {}
             }
         }
@@ -330,10 +318,6 @@ impl DemFeed {
                 self.note_error(&format!("{key}: {e}"));
             }
         }
-    }
-
-    pub fn streamer_idle(&self) -> bool {
-        self.streamer.is_idle()
     }
 
     /// Tile distance from the nadir in 1/1000 degree (lower is sooner).

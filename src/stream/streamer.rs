@@ -161,12 +161,6 @@ impl TileStreamer {
         }
     }
 
-    /// True when the tile is queued or being read.
-    pub fn is_pending(&self, key: &TileKey) -> bool {
-        let q = self.shared.lock();
-        q.queued.contains_key(key) || q.in_flight.contains_key(key)
-    }
-
     /// What has finished since the last call (never blocks).
     pub fn poll(&self) -> Vec<Completion> {
         self.completions.try_iter().collect()
