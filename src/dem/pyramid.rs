@@ -1,5 +1,5 @@
-//! The tiled elevation pyramid file: the unit of streaming (DESIGN.md "Data"; issue 3 items 3
-//! and 5, read by the tile streamer of issue 4).
+//! The tiled elevation pyramid file: the unit of streaming (DESIGN.md "Data"), read tile by
+//! tile by `crate::stream`.
 //!
 //! A pyramid holds a geographic (equirectangular, pixel-centre) grid of heights at levels
 //! from the source's resolution down to one tile, each level half the resolution of the one

@@ -1,4 +1,4 @@
-//! Feeds the clipmap level textures of a DEM from the tile streamer (issue 4): works out which
+//! Feeds the clipmap level textures of a DEM from the tile streamer: works out which
 //! pyramid tiles each level's new texels need, asks the streamer for the missing ones (coarse
 //! levels first, then finer ones nearest the viewer), uploads arrived tiles into the GPU tile
 //! cache within a per-frame budget, and fills a level only when every tile it needs is there.
