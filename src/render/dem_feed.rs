@@ -71,6 +71,11 @@ pub struct DemFeed {
     frame: u64,
     /// Tiles the CPU queries (camera height, bounds) found missing since the last update.
     aux_missing: RefCell<HashMap<TileKey, Priority>>,
+    /// Whether this frame's camera height came from a coarser level than the finest (its tile
+    /// was missing): such a frame is not settled, whatever has arrived since.
+    fell_back: std::cell::Cell<bool>,
+    /// Tiles the CPU queries read since the last update (promoted in the LRU there).
+    touched: RefCell<Vec<TileKey>>,
     errors: VecDeque<String>,
     pub last: FeedFrame,
     /// (when, bytes read then) of the last rate sample.
@@ -103,6 +108,8 @@ impl DemFeed {
             settings,
             frame: 0,
             aux_missing: RefCell::new(HashMap::new()),
+            fell_back: std::cell::Cell::new(false),
+            touched: RefCell::new(Vec::new()),
             errors: VecDeque::new(),
             last: FeedFrame::default(),
             rate_sample: (Instant::now(), 0),
@@ -129,13 +136,25 @@ impl DemFeed {
 
     /// Runs `f` with a code reader over the decoded tiles; missing tiles are noted (with
     /// `priority`) when `note` is true.
-    fn with_codes<R>(&self, note: bool, priority: Priority, f: impl FnOnce(CodeFn<'_>) -> R) -> R {
+    fn with_codes<R>(
+        &self,
+        note: bool,
+        priority: Priority,
+        critical: bool,
+        f: impl FnOnce(CodeFn<'_>) -> R,
+    ) -> R {
         let t = self.dem.pyramid().tile_size();
         let code = |level: usize, p: Plane, row: usize, col: usize| -> Option<i16> {
             let key = self.key(level, row, col);
             match self.cache.peek(&key) {
-                Some(tile) => Some(tile.code(p, col % t, row % t)),
+                Some(tile) => {
+                    self.touched.borrow_mut().push(key);
+                    Some(tile.code(p, col % t, row % t))
+                }
                 None => {
+                    if critical {
+                        self.fell_back.set(true);
+                    }
                     if note {
                         self.aux_missing.borrow_mut().insert(key, priority);
                     }
@@ -146,11 +165,21 @@ impl DemFeed {
         f(&code)
     }
 
+    /// Starts a frame's CPU queries (see [`DemFeed::fell_back`]).
+    pub fn begin_frame(&self) {
+        self.fell_back.set(false);
+    }
+
+    /// True when the camera height since [`DemFeed::begin_frame`] lacked its tile.
+    pub fn fell_back(&self) -> bool {
+        self.fell_back.get()
+    }
+
     /// The terrain height at (lat, lon) from the finest level at hand (the finest level's tile
     /// is asked for first); sea level before anything has arrived.
     pub fn height_at_m(&self, lat_deg: f64, lon_deg: f64) -> f64 {
         for level in 0..self.dem.pyramid().level_count() {
-            let got = self.with_codes(level == 0, CAMERA_PRIORITY, |code| {
+            let got = self.with_codes(level == 0, CAMERA_PRIORITY, true, |code| {
                 self.dem.sample_m_with(lat_deg, lon_deg, level, code)
             });
             if let Ok(h) = got {
@@ -166,7 +195,9 @@ impl DemFeed {
     pub fn height_bounds_near_m(&self, u: DVec3, angle_rad: f64) -> (f64, f64) {
         let first = self.dem.bounds_level(angle_rad);
         for level in first..self.dem.pyramid().level_count() {
-            let got = self.with_codes(level == first, BOUNDS_PRIORITY, |code| {
+            // Coarser bounds still bound the terrain: culling stays conservative and the image
+            // the same, so a fallback here does not keep the frame from settling.
+            let got = self.with_codes(level == first, BOUNDS_PRIORITY, false, |code| {
                 self.dem
                     .height_bounds_near_m_at_level_with(u, angle_rad, level, code)
             });
@@ -191,6 +222,12 @@ impl DemFeed {
     ) -> (Vec<bool>, u64) {
         self.frame += 1;
         let frame = self.frame;
+        let mut touched = self.touched.take();
+        touched.sort_unstable();
+        touched.dedup();
+        for key in &touched {
+            self.cache.promote(key);
+        }
         for done in self.streamer.poll() {
             match done {
                 Completion::Loaded(tile) => self.cache.insert(tile),
@@ -292,7 +329,9 @@ impl DemFeed {
             gpu_tiles: self.gpu.resident_count(),
             gpu_capacity: self.gpu.capacity(),
             gpu_bytes_uploaded: self.gpu.bytes_uploaded,
-            complete: missing.is_empty()
+            // Tiles wanted only for culling bounds do not hold the frame back (see
+            // `height_bounds_near_m`).
+            complete: missing.values().all(|&p| p == BOUNDS_PRIORITY)
                 && to_upload.len() == uploads as usize
                 && filled.iter().all(|f| *f),
             last_error: self.errors.back().cloned(),

@@ -492,6 +492,9 @@ impl TerrainRenderer {
         let phi_v = frame.phi_v.rem_euclid(std::f64::consts::TAU);
         let theta_v = frame.theta_v;
         // From the tiles at hand when streaming: a frame never waits for the file.
+        if let Some(feed) = &self.feed {
+            feed.begin_frame();
+        }
         let ground_m = match &self.feed {
             Some(feed) => feed.height_at_m(camera.lat_deg, camera.lon_deg),
             None => self.terrain_height_m(camera.lat_deg, camera.lon_deg),
@@ -665,6 +668,12 @@ impl TerrainRenderer {
         };
         queue.write_buffer(&self.frame_buffer, 0, bytemuck::bytes_of(&uniforms));
 
+        // A frame whose camera height or culling bounds came from coarser tiles than its own
+        // is not settled, even if those tiles have arrived meanwhile.
+        let mut stream = stream;
+        if let (Some(st), Some(feed)) = (&mut stream, &self.feed) {
+            st.complete &= !feed.fell_back();
+        }
         FrameInfo {
             selection,
             draw,

@@ -44,6 +44,12 @@ impl TileCache {
         self.tiles.peek(key)
     }
 
+    /// Marks a tile as used now (a hit seen through [`TileCache::peek`]), so tiles the CPU
+    /// keeps reading stay while tiles that only passed through to the GPU go first.
+    pub fn promote(&mut self, key: &TileKey) {
+        self.tiles.promote(key);
+    }
+
     pub fn contains(&self, key: &TileKey) -> bool {
         self.tiles.contains(key)
     }
