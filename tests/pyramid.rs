@@ -74,20 +74,6 @@ impl RasterSource for Synth {
     }
 }
 
-/// A global grid of `cols` × `rows` pixels, pixel edges on ±180° and ±90°.
-fn global_grid(cols: usize, rows: usize) -> GeoGrid {
-    let dlon = 360.0 / cols as f64;
-    let dlat = 180.0 / rows as f64;
-    GeoGrid {
-        cols,
-        rows,
-        lon0_deg: -180.0 + 0.5 * dlon,
-        lat0_deg: 90.0 - 0.5 * dlat,
-        dlon_deg: dlon,
-        dlat_deg: dlat,
-    }
-}
-
 /// 333 × 217 pixels of 30″ north of Lake Garda (regional, odd sizes).
 fn regional_grid() -> GeoGrid {
     let d = 1.0 / 120.0;
@@ -182,7 +168,7 @@ fn pyramid_can_be_shared_across_threads() {
 
 #[test]
 fn global_odd_sizes_levels_and_exact_pixel_centres() {
-    let grid = global_grid(1000, 499);
+    let grid = GeoGrid::global(1000, 499);
     let src = Synth::new(grid, |_, _, lat, lon| terrain(lat, lon) as f32);
     let t = 64;
     let (path, report) = build(&src, "global.gpyr", t);
@@ -445,7 +431,7 @@ fn check_footprints(pyr: &Pyramid, seed: u64) {
 
 #[test]
 fn coarse_min_max_bound_finer_samples() {
-    let grid = global_grid(700, 351);
+    let grid = GeoGrid::global(700, 351);
     let src = Synth::new(grid, |_, _, lat, lon| terrain(lat, lon) as f32);
     let (path, _) = build(&src, "bounds-global.gpyr", 32);
     let pyr = Pyramid::open(&path).expect("open");
@@ -610,7 +596,7 @@ fn longitude_kernel_widens_towards_the_poles() {
     // A pure longitude wave of 9° wavelength at every latitude. On the sphere its ground
     // wavelength shrinks as cos(lat), so near the poles it is far above the band limit of the
     // coarse level and must be filtered away; near the equator a 2×2 box keeps most of it.
-    let grid = global_grid(720, 360);
+    let grid = GeoGrid::global(720, 360);
     let src = Synth::new(grid, |_, _, _, lon| {
         (1000.0 * (40.0 * lon.to_radians()).cos()) as f32
     });
@@ -699,7 +685,7 @@ fn longitude_kernel_widens_towards_the_poles() {
 // Corruption, truncation, bad headers
 
 fn small_pyramid(name: &str) -> PathBuf {
-    let src = Synth::new(global_grid(300, 150), |_, _, lat, lon| {
+    let src = Synth::new(GeoGrid::global(300, 150), |_, _, lat, lon| {
         terrain(lat, lon) as f32
     });
     build(&src, name, 32).0
@@ -861,7 +847,7 @@ fn bad_magic_version_and_garbage_are_clear_errors() {
 
 #[test]
 fn nan_becomes_sea_level_and_is_counted() {
-    let grid = global_grid(250, 130);
+    let grid = GeoGrid::global(250, 130);
     let is_nan = |r: usize, c: usize| r == 5 || (r * 7 + c * 3).is_multiple_of(101);
     let src = Synth::new(grid, move |r, c, lat, lon| {
         if is_nan(r, c) {
@@ -952,7 +938,7 @@ fn nan_becomes_sea_level_and_is_counted() {
 
 #[test]
 fn progress_reaches_one() {
-    let src = Synth::new(global_grid(400, 200), |_, _, lat, lon| {
+    let src = Synth::new(GeoGrid::global(400, 200), |_, _, lat, lon| {
         terrain(lat, lon) as f32
     });
     let path = tmp_path("progress.gpyr");
@@ -1108,7 +1094,7 @@ fn memory_bound_child() {
         return;
     }
     let (cols, rows) = big_size();
-    let grid = global_grid(cols, rows);
+    let grid = GeoGrid::global(cols, rows);
     let src = BigSynth::new(grid);
     let path = tmp_path(&format!("big-{cols}x{rows}.gpyr"));
     let before = vm_hwm_kb();

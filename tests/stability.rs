@@ -1087,20 +1087,6 @@ impl RasterSource for MemRaster {
     }
 }
 
-/// A grid of `cols` × `rows` pixels covering the globe, pixel edges on ±180° and ±90°.
-fn global_grid(cols: usize, rows: usize) -> GeoGrid {
-    let dlon = 360.0 / cols as f64;
-    let dlat = 180.0 / rows as f64;
-    GeoGrid {
-        cols,
-        rows,
-        lon0_deg: -180.0 + 0.5 * dlon,
-        lat0_deg: 90.0 - 0.5 * dlat,
-        dlon_deg: dlon,
-        dlat_deg: dlat,
-    }
-}
-
 fn tmp_path(name: &str) -> PathBuf {
     let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("stability-tests");
     std::fs::create_dir_all(&dir).expect("temp dir");
@@ -1134,7 +1120,7 @@ fn small_raster() -> impl Strategy<Value = MemRaster> {
     ];
     (shape, extent).prop_flat_map(|((cols, rows), extent)| {
         let grid = match extent {
-            None => global_grid(cols, rows),
+            None => GeoGrid::global(cols, rows),
             Some((lon0, lat0, log_spacing)) => {
                 let d = 10f64.powf(log_spacing);
                 // Keep every row centre on the sphere.
@@ -1309,7 +1295,7 @@ fn tiny_and_extreme_rasters_build_or_fail_clearly_and_sample_within_range() {
 fn named_data_extremes() {
     // 32767 fits the default 1 m quantum exactly; −32768 does not and the error says how to fix it.
     let high = MemRaster {
-        grid: global_grid(2, 1),
+        grid: GeoGrid::global(2, 1),
         values: vec![32767.0, 0.0],
     };
     let path = tmp_path("named-high.gpyr");
@@ -1323,7 +1309,7 @@ fn named_data_extremes() {
     drop(pyramid);
 
     let low = MemRaster {
-        grid: global_grid(1, 1),
+        grid: GeoGrid::global(1, 1),
         values: vec![-32768.0],
     };
     let error = PyramidBuilder::new()
@@ -1345,7 +1331,7 @@ fn named_data_extremes() {
 
     // All no data: sea level everywhere, counted, and the terrain's range is [0, 0].
     let empty = MemRaster {
-        grid: global_grid(3, 2),
+        grid: GeoGrid::global(3, 2),
         values: vec![f32::NAN; 6],
     };
     let report = PyramidBuilder::new().build(&empty, &path).unwrap();
@@ -1369,7 +1355,7 @@ fn named_data_extremes() {
     // 1×1 and 2×1: one level, one tile; sampling interpolates within the values.
     for (cols, values) in [(1, vec![1234.0f32]), (2, vec![-5.0, 7.0])] {
         let raster = MemRaster {
-            grid: global_grid(cols, 1),
+            grid: GeoGrid::global(cols, 1),
             values: values.clone(),
         };
         let report = PyramidBuilder::new().build(&raster, &path).unwrap();

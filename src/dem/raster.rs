@@ -18,6 +18,20 @@ pub struct GeoGrid {
 }
 
 impl GeoGrid {
+    /// A grid of `cols` × `rows` pixels covering the globe, pixel edges on ±180° and ±90°.
+    pub fn global(cols: usize, rows: usize) -> Self {
+        let dlon = 360.0 / cols as f64;
+        let dlat = 180.0 / rows as f64;
+        Self {
+            cols,
+            rows,
+            lon0_deg: -180.0 + 0.5 * dlon,
+            lat0_deg: 90.0 - 0.5 * dlat,
+            dlon_deg: dlon,
+            dlat_deg: dlat,
+        }
+    }
+
     pub fn lon_of_col(&self, col: f64) -> f64 {
         self.lon0_deg + col * self.dlon_deg
     }

@@ -14,7 +14,7 @@ use wgpu::util::DeviceExt;
 use crate::dem::pyramid::Pyramid;
 use crate::stream::{TileData, TileKey};
 
-use super::fill::DispatchParams;
+use super::fill::{DispatchParams, compute_pipeline};
 use super::shader;
 
 pub mod gpu_data {
@@ -273,19 +273,7 @@ impl DemFillPass {
                 ),
             ],
         });
-        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("DEM fill pipeline layout"),
-            bind_group_layouts: &[Some(&layout)],
-            immediate_size: 0,
-        });
-        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some("DEM fill pipeline"),
-            layout: Some(&pipeline_layout),
-            module: &module,
-            entry_point: Some("cs_main"),
-            compilation_options: Default::default(),
-            cache: None,
-        });
+        let pipeline = compute_pipeline(device, "DEM fill pipeline", &module, &layout);
         Self {
             pipeline,
             layout,
