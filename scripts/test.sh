@@ -32,6 +32,13 @@ if [ ${#packages[@]} -gt 0 ]; then
     DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${packages[@]}" >/dev/null
 fi
 
+# The map-transform reference vectors are reproduced from scratch in 60-digit arithmetic.
+if ! python3 -c 'import mpmath' 2>/dev/null; then
+    echo "scripts/test.sh: installing mpmath (pip)" >&2
+    python3 -m pip install --quiet mpmath || python3 -m pip install --quiet --break-system-packages mpmath
+fi
+python3 scripts/map_transform_vectors.py --check tests/data/map_transform_vectors.csv
+
 export GLOBE_REQUIRE_GPU=1
 export GLOBE_REQUIRE_DATA=1
 # Mesa's window-system layer complains when this is unset; the tests never open a window.
