@@ -5,13 +5,14 @@
 // rectangle's first grid point u_r: the CPU gives sin/cos of the phase there, the GPU adds
 // ω·(Δu·a) with Δu built from small angle offsets without cancellation.
 
+// Rust twin: terrain::analytic::WaveParams.
 struct Wave {
     omega_a: vec4<f32>,   // ω·a, w = band-limited amplitude (m)
     omega_b: vec4<f32>,   // ω·b
     phases: vec4<f32>,    // sin α_a, cos α_a, sin α_b, cos α_b at u_r
 }
 
-// Rust twin: render::fill::gpu_data::FillParams.
+// Rust twin: render::gpu_data::FillParams (layout checked by tests/shader_contract.rs).
 struct FillParams {
     // sin θr, cos θr, sin φr, cos φr of the reference grid point.
     ref_trig: vec4<f32>,
@@ -56,7 +57,7 @@ fn delta_unit(dphi: f32, dtheta: f32) -> vec3<f32> {
     );
 }
 
-@compute @workgroup_size(8, 8, 1)
+@compute @workgroup_size(WORKGROUP_SIZE, WORKGROUP_SIZE, 1)
 fn cs_main(@builtin(global_invocation_id) id: vec3<u32>) {
     if id.x >= params.extent.x || id.y >= params.extent.y {
         return;

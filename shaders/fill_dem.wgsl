@@ -7,7 +7,7 @@
 // at the poles, where rows fold back), so they are passed as an integer base, a fraction
 // and a step: the fraction stays small, so f32 keeps sub-millimetre positions even at 30″.
 
-// Rust twin: render::tiles::gpu_data::DemFillParams.
+// Rust twin: render::gpu_data::DemFillParams (layout checked by tests/shader_contract.rs).
 struct DemFillParams {
     base: vec2<i32>,        // integer (col, row) of the job's first grid point
     frac: vec2<f32>,        // its fractional (col, row)
@@ -29,8 +29,6 @@ struct DemFillParams {
     decode: vec2<f32>,
     _pad: vec2<u32>,
 }
-
-const NO_SLOT: u32 = 0xffffffffu;
 
 @group(0) @binding(0) var<uniform> params: DemFillParams;
 @group(0) @binding(1) var out_heights: texture_storage_2d_array<r32float, write>;
@@ -67,7 +65,7 @@ fn row_sample(row: i32, c: i32, fc: f32) -> f32 {
     return a + fc * (pixel(wrap_col(c + 1), r) - a);
 }
 
-@compute @workgroup_size(8, 8, 1)
+@compute @workgroup_size(WORKGROUP_SIZE, WORKGROUP_SIZE, 1)
 fn cs_main(@builtin(global_invocation_id) id: vec3<u32>) {
     if id.x >= params.extent.x || id.y >= params.extent.y {
         return;

@@ -7,9 +7,10 @@
 // offsets are view-space directions, never φ/θ derivatives), sun lighting, hypsometric colours,
 // optional level overlay.
 //
-// Prepended at build time: generated constants (MAX_LEVELS, …) and common/map_transform.wgsl.
+// Prepended at build time: constants generated from Rust (render::shader::shared_constants:
+// MAX_LEVELS, OVERLAY_LEVELS, TRANSFORM_*, …) and common/map_transform.wgsl.
 
-// Rust twin: render::terrain::gpu_data::FrameUniforms.
+// Rust twin: render::gpu_data::FrameUniforms (layout checked by tests/shader_contract.rs).
 struct FrameUniforms {
     clip_from_view: mat4x4<f32>,
     transform: TransformUniforms,
@@ -29,7 +30,7 @@ struct FrameUniforms {
     _pad2: u32,
 }
 
-// Rust twin: render::terrain::gpu_data::LevelUniforms.
+// Rust twin: render::gpu_data::LevelUniforms.
 struct LevelUniforms {
     // Viewer's grid coordinates modulo the texture size (texel units).
     grid_x_viewer: f32,
@@ -42,6 +43,7 @@ struct LevelUniforms {
     _pad2: f32,
 }
 
+// Rust twin: clipmap::RingVertex, buffer layout render::gpu_data::RING_VERTEX_ATTRIBUTES.
 struct RingVertex {
     @location(0) p_tilde: vec3<f32>,
     @location(1) one_minus_cos: f32,
@@ -63,8 +65,6 @@ struct VertexOut {
 @group(0) @binding(0) var<uniform> frame: FrameUniforms;
 @group(0) @binding(1) var<uniform> levels: array<LevelUniforms, MAX_LEVELS>;
 @group(0) @binding(2) var heights: texture_2d_array<f32>;
-
-const OVERLAY_LEVELS: u32 = 1u;
 
 fn wrap_texel(i: i32) -> i32 {
     let s = i32(frame.texture_size);
@@ -115,10 +115,10 @@ fn coarse_blend_weight(level: u32, ring_t: f32) -> f32 {
 
 fn map_transform(p_tilde: vec3<f32>, seam_side: f32, level: u32, ring_t: f32) -> vec2<f32> {
     switch frame.transform_form {
-        case 0u: {
+        case TRANSFORM_DIRECT: {
             return map_transform_direct(frame.transform, p_tilde, seam_side);
         }
-        case 2u: {
+        case TRANSFORM_APPROXIMATE: {
             // By ring, continuous across level boundaries (level i, ring_t 0 ≡ level i−1,
             // ring_t 1): 0 outside approx_start_level, ramping to 1 across it (Fig. 14).
             // Only the blend ring pays for both forms; inside it the approximation alone runs
@@ -132,7 +132,7 @@ fn map_transform(p_tilde: vec3<f32>, seam_side: f32, level: u32, ring_t: f32) ->
             }
             return map_transform_blended(w, frame.transform, p_tilde, seam_side);
         }
-        default: {
+        case TRANSFORM_STABLE, default: {
             return map_transform_stable(frame.transform, p_tilde, seam_side);
         }
     }

@@ -9,7 +9,8 @@
 //! | [`terrain`] | height sources: the analytic test planet and the DEM pyramid |
 //! | [`stream`] | tile streaming: sources (mmap, fault injection), tokio streamer, LRU cache |
 //! | [`clipmap`] | ring mesh, level texture windows, level and sector selection |
-//! | [`render`] | wgpu plumbing: context, terrain pass, compute fill, offscreen target |
+//! | [`plan`] | one frame planned in f64 (view, clipmap levels, fills, sectors, waiting), no GPU |
+//! | [`render`] | wgpu plumbing: the plan → f32 GPU data step and the Rust ↔ WGSL contract (`gpu_data`), context, terrain pass, compute fill, offscreen target |
 //! | [`scenes`] | the named views of DESIGN.md |
 //! | [`measure`] | f64 reference ray caster and the per-pixel screen-space error (error-bounded paper, eq. 2–3) |
 //! | [`bench`] | `globe bench`: timed frames of a scene or the flight path, with their error |
@@ -21,6 +22,7 @@ pub mod clipmap;
 pub mod dem;
 pub mod geo;
 pub mod measure;
+pub mod plan;
 pub mod render;
 pub mod report;
 pub mod scenes;

@@ -756,7 +756,7 @@ fn validate_wgsl(source: &str) -> naga::Module {
 }
 
 #[test]
-fn wgsl_library_validates_and_matches_uniform_layout() {
+fn wgsl_library_validates_and_names_its_twins() {
     // The library alone: no entry points, no bindings.
     let library = validate_wgsl(WGSL_LIBRARY);
     assert!(library.entry_points.is_empty());
@@ -778,55 +778,8 @@ fn cs_main() {{
 }}
 "
     );
-    let module = validate_wgsl(&wrapper);
-    let (members, span) = module
-        .types
-        .iter()
-        .find_map(|(_, ty)| match (&ty.name, &ty.inner) {
-            (Some(name), naga::TypeInner::Struct { members, span })
-                if name == "TransformUniforms" =>
-            {
-                Some((members.clone(), *span))
-            }
-            _ => None,
-        })
-        .expect("TransformUniforms in the module");
-    assert_eq!(span as usize, std::mem::size_of::<TransformUniformsF32>());
-    assert_eq!(span % 16, 0, "uniform block padded to 16 bytes");
-    let rust_offsets = [
-        (
-            "sin_theta_v",
-            std::mem::offset_of!(TransformUniformsF32, sin_theta_v),
-        ),
-        (
-            "cos_theta_v",
-            std::mem::offset_of!(TransformUniformsF32, cos_theta_v),
-        ),
-        (
-            "theta_v",
-            std::mem::offset_of!(TransformUniformsF32, theta_v),
-        ),
-        (
-            "pi_minus_theta_v",
-            std::mem::offset_of!(TransformUniformsF32, pi_minus_theta_v),
-        ),
-        (
-            "stretch",
-            std::mem::offset_of!(TransformUniformsF32, stretch),
-        ),
-        ("_pad0", std::mem::offset_of!(TransformUniformsF32, _pad0)),
-        ("_pad1", std::mem::offset_of!(TransformUniformsF32, _pad1)),
-        ("_pad2", std::mem::offset_of!(TransformUniformsF32, _pad2)),
-    ];
-    assert_eq!(members.len(), rust_offsets.len());
-    for (member, (name, offset)) in members.iter().zip(rust_offsets) {
-        assert_eq!(member.name.as_deref(), Some(name));
-        assert_eq!(member.offset as usize, offset, "{name}");
-        assert!(matches!(
-            module.types[member.ty].inner,
-            naga::TypeInner::Scalar(naga::Scalar::F32)
-        ));
-    }
+    // The struct layouts themselves are checked by tests/shader_contract.rs.
+    validate_wgsl(&wrapper);
     // Every twin named in the WGSL docs exists in the Rust module (by its doc comment).
     for twin in [
         "rotate_f32",

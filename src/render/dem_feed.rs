@@ -17,6 +17,7 @@ use glam::DVec3;
 use crate::clipmap::levels::{GridRect, LevelGrid};
 use crate::dem::pyramid::{CodeFn, Plane};
 use crate::geo::sphere;
+use crate::plan::{HeightSource, LevelFill, TerrainQuery};
 use crate::stream::source::open_source;
 use crate::stream::{
     Completion, Priority, StreamSettings, StreamStats, TileCache, TileData, TileKey, TileStreamer,
@@ -25,15 +26,8 @@ use crate::terrain::DemTerrain;
 
 use super::RenderError;
 use super::fill::band_limit_texel_m;
-use super::tiles::{DemFillParams, DemFillPass, GpuTileCache, empty_params};
-
-/// One level's update this frame: the grid it should hold and the rectangles that differ
-/// from what its texture holds now.
-#[derive(Clone, Debug)]
-pub struct LevelJob {
-    pub grid: LevelGrid,
-    pub rects: Vec<GridRect>,
-}
+use super::gpu_data::{DemFillJob, DemFillParams};
+use super::tiles::{DemFillPass, GpuTileCache};
 
 /// What the feed did in one frame, and the pipeline's state (for the UI and `globe bench`).
 #[derive(Clone, Debug, Default)]
@@ -216,7 +210,7 @@ impl DemFeed {
         &mut self,
         queue: &wgpu::Queue,
         encoder: &mut wgpu::CommandEncoder,
-        levels: &[LevelJob],
+        levels: &[LevelFill],
         nadir_phi_theta: (f64, f64),
         timestamps: Option<wgpu::ComputePassTimestampWrites<'_>>,
     ) -> (Vec<bool>, u64) {
@@ -239,7 +233,7 @@ impl DemFeed {
         // Jobs and the tiles each level needs.
         let nadir = sphere::unit_vector(nadir_phi_theta.0, nadir_phi_theta.1);
         let mut needed: HashMap<TileKey, Priority> = HashMap::new();
-        let mut per_level: Vec<(Vec<DemFillParams>, Vec<TileKey>)> = Vec::new();
+        let mut per_level: Vec<(Vec<DemFillJob>, Vec<TileKey>)> = Vec::new();
         for (rank, job) in levels.iter().enumerate() {
             let level = self
                 .dem
@@ -305,7 +299,8 @@ impl DemFeed {
             }
             filled.push(ready);
         }
-        let texels = self.fill.encode(queue, encoder, &jobs, timestamps);
+        let params: Vec<DemFillParams> = jobs.iter().map(DemFillParams::from).collect();
+        let texels = self.fill.encode(queue, encoder, &params, timestamps);
 
         self.streamer.want(&missing);
         let stream = self.streamer.stats();
@@ -377,7 +372,7 @@ impl DemFeed {
         grid: &LevelGrid,
         rect: &GridRect,
         level: usize,
-        out: &mut Vec<DemFillParams>,
+        out: &mut Vec<DemFillJob>,
         tiles: &mut Vec<TileKey>,
     ) {
         use std::f64::consts::PI;
@@ -397,20 +392,12 @@ impl DemFeed {
             (rect.gy0.max(south_row + 1), end, Fold::South),
         ];
         let [cap_n, cap_s] = self.dem.pole_caps(level);
-        let caps = (
-            cap_n.map_or([0.0, 0.0], |c| {
-                [
-                    ((90.0 - c.row_lat_deg) / g.dlat_deg) as f32,
-                    c.height_m as f32,
-                ]
-            }),
-            cap_s.map_or([0.0, 0.0], |c| {
-                [
-                    ((c.row_lat_deg + 90.0) / g.dlat_deg) as f32,
-                    c.height_m as f32,
-                ]
-            }),
-        );
+        let cap = |c: Option<crate::terrain::dem::PoleCap>, rows_to_pole: fn(f64) -> f64| {
+            c.map_or([0.0, 0.0], |c| {
+                [rows_to_pole(c.row_lat_deg) / g.dlat_deg, c.height_m]
+            })
+        };
+        let caps = (cap(cap_n, |lat| 90.0 - lat), cap(cap_s, |lat| lat + 90.0));
         let enc = pyr.encoding();
         let (page_base, tiles_x) = self.gpu.level_page(level);
         let dphi_deg = grid.dphi_rad.to_degrees();
@@ -454,27 +441,28 @@ impl DemFeed {
                 if wraps {
                     base_col = base_col.rem_euclid(cols);
                 }
-                let mut p = empty_params();
-                p.base = [base_col as i32, row_floor as i32];
-                p.frac = [(col - col_floor) as f32, (row - row_floor) as f32];
-                p.step = [dcol as f32, drow as f32];
-                p.slot0 = [
-                    (rect.gx0 + x_off as i64).rem_euclid(s) as u32,
-                    ya.rem_euclid(s) as u32,
-                ];
-                p.extent = [w, h];
-                p.layer = grid.level;
-                p.size = grid.size;
-                p.page_base = page_base;
-                p.tiles_x = tiles_x;
-                p.cols = cols as i32;
-                p.rows = rows as i32;
-                p.tile_size = t as i32;
-                p.wraps = wraps as u32;
-                p.cap_north = caps.0;
-                p.cap_south = caps.1;
-                p.decode = [enc.offset_m as f32, enc.quantum_m as f32];
-                out.push(p);
+                out.push(DemFillJob {
+                    base: [base_col, row_floor as i64],
+                    frac: [col - col_floor, row - row_floor],
+                    step: [dcol, drow],
+                    slot0: [
+                        (rect.gx0 + x_off as i64).rem_euclid(s) as u32,
+                        ya.rem_euclid(s) as u32,
+                    ],
+                    extent: [w, h],
+                    layer: grid.level,
+                    size: grid.size,
+                    page_base,
+                    tiles_x,
+                    cols,
+                    rows,
+                    tile_size: t,
+                    wraps,
+                    cap_north: caps.0,
+                    cap_south: caps.1,
+                    decode_offset_m: enc.offset_m,
+                    decode_quantum_m: enc.quantum_m,
+                });
 
                 // Tiles: every pixel the bilinear footprints of this piece touch.
                 let r_last = row + (h as f64 - 1.0) * drow;
@@ -509,6 +497,29 @@ impl DemFeed {
                 }
             }
         }
+    }
+}
+
+/// The frame plan's terrain questions, answered from the tiles at hand (never the file).
+impl TerrainQuery for DemFeed {
+    fn radius_m(&self) -> f64 {
+        self.dem.radius_m()
+    }
+    fn height_range_m(&self) -> (f64, f64) {
+        self.dem.height_range_m()
+    }
+    fn ground_m(&self, lat_deg: f64, lon_deg: f64) -> (f64, HeightSource) {
+        self.begin_frame();
+        let h = self.height_at_m(lat_deg, lon_deg);
+        let source = if self.fell_back() {
+            HeightSource::CoarserTiles
+        } else {
+            HeightSource::Tiles
+        };
+        (h, source)
+    }
+    fn height_bounds_near_m(&self, u: DVec3, angle_rad: f64) -> (f64, f64) {
+        DemFeed::height_bounds_near_m(self, u, angle_rad)
     }
 }
 

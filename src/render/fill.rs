@@ -1,36 +1,12 @@
 //! Compute pass that writes new rows/columns of the clipmap level textures (toroidal update,
 //! spherical-clipmaps.md §4.1) from the height source.
 
-use bytemuck::Zeroable;
-
 use crate::clipmap::levels::{GridRect, LevelGrid};
 use crate::terrain::AnalyticPlanet;
 
 use super::shader;
 
-pub mod gpu_data {
-    use bytemuck::{Pod, Zeroable};
-
-    use crate::terrain::analytic::{SCALES, WaveParams};
-
-    /// GPU twin: `FillParams` in `shaders/fill_analytic.wgsl`.
-    #[repr(C)]
-    #[derive(Clone, Copy, Debug, Pod, Zeroable)]
-    pub struct FillParams {
-        pub ref_trig: [f32; 4],
-        pub spacing: [f32; 4],
-        pub slot0: [u32; 2],
-        pub extent: [u32; 2],
-        pub layer: u32,
-        pub size: u32,
-        pub _pad: [u32; 2],
-        pub waves: [WaveParams; SCALES],
-    }
-}
-
-use gpu_data::FillParams;
-
-const WORKGROUP: u32 = 8;
+use super::gpu_data::FillParams;
 
 /// The compute pipeline of a fill: entry point `cs_main`, one bind group.
 pub(super) fn compute_pipeline(
@@ -212,7 +188,10 @@ impl FillPass {
             .bind_group
             .as_ref()
             .expect("fill target set before encoding");
-        let blocks: Vec<FillParams> = jobs.iter().map(|job| fill_params(planet, job)).collect();
+        let blocks: Vec<FillParams> = jobs
+            .iter()
+            .map(|job| FillParams::new(planet, &job.grid, &job.rect))
+            .collect();
         self.params.write(queue, &blocks);
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some("clipmap fill"),
@@ -223,8 +202,8 @@ impl FillPass {
         for (i, job) in jobs.iter().enumerate() {
             pass.set_bind_group(0, bind_group, &[self.params.offset(i)]);
             pass.dispatch_workgroups(
-                job.rect.width.div_ceil(WORKGROUP),
-                job.rect.height.div_ceil(WORKGROUP),
+                job.rect.width.div_ceil(shader::WORKGROUP_SIZE),
+                job.rect.height.div_ceil(shader::WORKGROUP_SIZE),
                 1,
             );
             texels += job.rect.texels();
@@ -238,25 +217,4 @@ impl FillPass {
 /// the poles (anisotropy ≤ 2, see `clipmap::levels`).
 pub fn band_limit_texel_m(grid: &LevelGrid, radius_m: f64) -> f64 {
     2.0 * grid.dtheta_rad * radius_m
-}
-
-fn fill_params(planet: &AnalyticPlanet, job: &FillJob) -> FillParams {
-    let g = &job.grid;
-    let phi_r = job.rect.gx0 as f64 * g.dphi_rad;
-    let theta_r = job.rect.gy0 as f64 * g.dtheta_rad;
-    let (st, ct) = theta_r.sin_cos();
-    let (sp, cp) = phi_r.sin_cos();
-    let s = g.size as i64;
-    let mut p = FillParams::zeroed();
-    p.ref_trig = [st as f32, ct as f32, sp as f32, cp as f32];
-    p.spacing = [g.dphi_rad as f32, g.dtheta_rad as f32, 0.0, 0.0];
-    p.slot0 = [
-        job.rect.gx0.rem_euclid(s) as u32,
-        job.rect.gy0.rem_euclid(s) as u32,
-    ];
-    p.extent = [job.rect.width, job.rect.height];
-    p.layer = g.level;
-    p.size = g.size;
-    p.waves = planet.gpu_waves(phi_r, theta_r, band_limit_texel_m(g, planet.radius_m));
-    p
 }

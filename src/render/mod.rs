@@ -7,6 +7,7 @@
 pub mod context;
 pub mod dem_feed;
 pub mod fill;
+pub mod gpu_data;
 pub mod offscreen;
 pub mod shader;
 pub mod terrain;

@@ -1,83 +1,28 @@
 //! The terrain pass: the static ring mesh drawn with the level textures (spherical-clipmaps.md).
 //!
-//! Per frame the CPU (f64) decides what to draw and which texels moved; the GPU does the
-//! per-texel (compute fill) and per-vertex (map transform, displacement) work.
+//! Per frame the CPU plans in f64 what to draw and which texels moved (`crate::plan`),
+//! `gpu_data` turns the plan into f32 uniforms, and the GPU does the per-texel (compute fill)
+//! and per-vertex (map transform, displacement) work.
 
-use std::f64::consts::PI;
-
-use glam::{DMat4, DVec3};
 use wgpu::util::DeviceExt;
 
 use crate::clipmap::levels::LevelGrid;
-use crate::clipmap::selection::{DrawList, Frustum, LevelSelection, SectorBounds};
+use crate::clipmap::selection::{DrawList, LevelSelection, SectorBounds};
 use crate::clipmap::{ClipmapSettings, RingMesh, RingVertex};
 use crate::geo::camera::Camera;
-use crate::geo::map_transform::{Stretch, TransformUniformsF32};
-use crate::geo::{projection, sphere, visibility};
+use crate::plan::{ClipmapPlan, HeightSource, TerrainQuery, ViewPlan};
+use crate::stream::StreamSettings;
 use crate::terrain::Terrain;
 
 use super::RenderError;
-use super::dem_feed::{DemFeed, FeedFrame, LevelJob};
+use super::dem_feed::{DemFeed, FeedFrame};
 use super::fill::{FillJob, FillPass};
+use super::gpu_data::{self, FrameUniforms, LevelUniforms, RING_VERTEX_ATTRIBUTES};
 use super::shader::{self, MAX_LEVELS};
-use crate::stream::StreamSettings;
 
 pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 
-pub mod gpu_data {
-    use bytemuck::{Pod, Zeroable};
-
-    use crate::geo::map_transform::TransformUniformsF32;
-
-    /// GPU twin: `FrameUniforms` in `shaders/terrain.wgsl`.
-    #[repr(C)]
-    #[derive(Clone, Copy, Debug, Pod, Zeroable)]
-    pub struct FrameUniforms {
-        pub clip_from_view: [[f32; 4]; 4],
-        pub transform: TransformUniformsF32,
-        pub sun_view: [f32; 4],
-        pub radius_m: f32,
-        pub eye_height_m: f32,
-        pub blend_fraction: f32,
-        pub texture_size: u32,
-        pub transform_form: u32,
-        pub approx_start_level: u32,
-        pub coarsest_level: u32,
-        pub finest_level: u32,
-        pub overlay: u32,
-        /// The eye's altitude minus `eye_height_m` (f64 − f32): a 1 mm climb at 9 km is below
-        /// one f32 step of the altitude, so the shader adds this low part after the difference.
-        pub eye_height_lo_m: f32,
-        pub _pad: [u32; 2],
-    }
-
-    /// GPU twin: `LevelUniforms` in `shaders/terrain.wgsl`.
-    #[repr(C)]
-    #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
-    pub struct LevelUniforms {
-        pub grid_x_viewer: f32,
-        pub grid_y_viewer: f32,
-        pub inv_dphi: f32,
-        pub inv_dtheta: f32,
-        pub dtheta_rad: f32,
-        pub _pad: [f32; 3],
-    }
-}
-
-use gpu_data::{FrameUniforms, LevelUniforms};
-
-/// Debug overlays drawn by the terrain pass.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct Overlays {
-    /// Each level in its own colour (`--overlay levels`).
-    pub levels: bool,
-}
-
-impl Overlays {
-    fn bits(self) -> u32 {
-        self.levels as u32
-    }
-}
+pub use super::gpu_data::Overlays;
 
 /// What the renderer decided and did for one frame.
 #[derive(Clone, Debug)]
@@ -88,6 +33,8 @@ pub struct FrameInfo {
     pub texels_filled: u64,
     pub near_m: f64,
     pub height_above_terrain_m: f64,
+    /// Where the camera's ground height came from.
+    pub ground_source: HeightSource,
     /// Linear RGB background: sky blue near the ground, black in space.
     pub sky_linear: [f64; 3],
     /// The streaming pipeline's state after this frame (DEM terrain only).
@@ -101,11 +48,6 @@ impl FrameInfo {
         self.stream.as_ref().is_none_or(|s| s.complete)
     }
 }
-
-/// Direction to the sun in the viewer's local frame: 35° above the horizon in the south-east,
-/// so every named scene is lit from the same side (a fixed world sun would leave some dark).
-pub const SUN_ELEVATION_DEG: f64 = 35.0;
-pub const SUN_AZIMUTH_DEG: f64 = 135.0;
 
 pub struct TerrainRenderer {
     pub settings: ClipmapSettings,
@@ -270,9 +212,6 @@ impl TerrainRenderer {
             bind_group_layouts: &[Some(&layout)],
             immediate_size: 0,
         });
-        let attributes = wgpu::vertex_attr_array![
-            0 => Float32x3, 1 => Float32, 2 => Float32, 3 => Float32, 4 => Uint32, 5 => Float32
-        ];
         let make_pipeline = |label, vs, fs| {
             device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
                 label: Some(label),
@@ -284,7 +223,7 @@ impl TerrainRenderer {
                     buffers: &[Some(wgpu::VertexBufferLayout {
                         array_stride: std::mem::size_of::<RingVertex>() as u64,
                         step_mode: wgpu::VertexStepMode::Vertex,
-                        attributes: &attributes,
+                        attributes: &RING_VERTEX_ATTRIBUTES,
                     })],
                 },
                 primitive: wgpu::PrimitiveState {
@@ -477,8 +416,9 @@ impl TerrainRenderer {
         self.terrain.height_at_lat_lon_m(lat_deg, lon_deg)
     }
 
-    /// Decides what to draw, records the texture updates into `encoder` and writes this
-    /// frame's uniforms. Call before `draw`, with the same viewport.
+    /// Plans the frame (`crate::plan`, f64), records the texture updates it asks for into
+    /// `encoder` and writes the frame's uniforms (`gpu_data`, the f64 → f32 step). Call before
+    /// `draw`, with the same viewport.
     pub fn prepare(
         &mut self,
         queue: &wgpu::Queue,
@@ -487,48 +427,16 @@ impl TerrainRenderer {
         width_px: u32,
         height_px: u32,
     ) -> FrameInfo {
-        let radius_m = self.terrain.radius_m();
-        let frame = camera.view_frame();
-        let phi_v = frame.phi_v.rem_euclid(std::f64::consts::TAU);
-        let theta_v = frame.theta_v;
         // From the tiles at hand when streaming: a frame never waits for the file.
-        if let Some(feed) = &self.feed {
-            feed.begin_frame();
-        }
-        let ground_m = match &self.feed {
-            Some(feed) => feed.height_at_m(camera.lat_deg, camera.lon_deg),
-            None => self.terrain_height_m(camera.lat_deg, camera.lon_deg),
-        };
-        let height_above_terrain_m = camera.altitude_m - ground_m;
-        let near_m = projection::near_plane_m(height_above_terrain_m);
-        let aspect = width_px as f64 / height_px.max(1) as f64;
-        let fov_y_rad = camera.fov_y_rad();
+        let view = ViewPlan::new(camera, width_px, height_px, self.query());
+        let mut clipmap = ClipmapPlan::new(
+            &view,
+            &self.settings,
+            &self.grids,
+            self.query().height_range_m(),
+            self.draw_all_levels,
+        );
 
-        // Levels: eq. 6 (with the mountain term) and eq. 7–8.
-        let (hmin, hmax) = self.terrain.height_range_m();
-        let theta_max = visibility::theta_tilde_max(radius_m, camera.altitude_m, hmin, hmax);
-        let theta_min =
-            visibility::theta_tilde_min(radius_m, height_above_terrain_m, fov_y_rad, height_px);
-        let mut selection = LevelSelection::new(self.settings.levels, theta_max, theta_min);
-        if self.draw_all_levels {
-            selection.coarsest = 0;
-            selection.finest = self.settings.levels - 1;
-        }
-
-        // Texture windows: the drawn levels and the one their outer rings blend into.
-        let first = selection.coarsest.saturating_sub(1);
-        let mut targets = Vec::new();
-        for level in first..=selection.finest {
-            let old = self.grids[level as usize];
-            let grid = LevelGrid::for_viewer(
-                level,
-                self.settings.texture_size,
-                phi_v,
-                theta_v,
-                old.as_ref(),
-            );
-            targets.push((grid, grid.dirty_since(old.as_ref())));
-        }
         let timestamps = self
             .fill_timestamps
             .as_ref()
@@ -537,151 +445,75 @@ impl TerrainRenderer {
                 beginning_of_pass_write_index: Some(2),
                 end_of_pass_write_index: Some(3),
             });
-        let (texels_filled, stream) = match &self.terrain {
-            Terrain::Analytic(planet) => {
-                let jobs: Vec<FillJob> = targets
+        let (texels_filled, stream) = match (&self.terrain, &mut self.feed) {
+            (Terrain::Analytic(planet), _) => {
+                let jobs: Vec<FillJob> = clipmap
+                    .fills
                     .iter()
-                    .flat_map(|(grid, rects)| {
-                        rects.iter().map(|rect| FillJob {
-                            grid: *grid,
+                    .flat_map(|fill| {
+                        fill.rects.iter().map(|rect| FillJob {
+                            grid: fill.grid,
                             rect: *rect,
                         })
                     })
                     .collect();
-                for (grid, _) in &targets {
-                    self.grids[grid.level as usize] = Some(*grid);
+                for fill in &clipmap.fills {
+                    self.grids[fill.grid.level as usize] = Some(fill.grid);
                 }
-                (
-                    self.fill.encode(queue, encoder, planet, &jobs, timestamps),
-                    None,
-                )
+                let texels = self.fill.encode(queue, encoder, planet, &jobs, timestamps);
+                (texels, None)
             }
-            Terrain::Dem(_) => {
-                let feed = self.feed.as_mut().expect("a DEM has a feed");
-                let jobs: Vec<LevelJob> = targets
-                    .iter()
-                    .map(|(grid, rects)| LevelJob {
-                        grid: *grid,
-                        rects: rects.clone(),
-                    })
-                    .collect();
+            (Terrain::Dem(_), Some(feed)) => {
+                let nadir = (view.phi_v_rad, view.theta_v_rad);
                 let (filled, texels) =
-                    feed.update(queue, encoder, &jobs, (phi_v, theta_v), timestamps);
-                for ((grid, _), ok) in targets.iter().zip(&filled) {
-                    if *ok {
-                        self.grids[grid.level as usize] = Some(*grid);
+                    feed.update(queue, encoder, &clipmap.fills, nadir, timestamps);
+                for (fill, ok) in clipmap.fills.iter().zip(filled) {
+                    if ok {
+                        self.grids[fill.grid.level as usize] = Some(fill.grid);
                     }
                 }
-                // Draw down to the last level that, like every coarser one, holds its target.
-                let ready = |l: u32| {
-                    targets
-                        .iter()
-                        .find(|(g, _)| g.level == l)
-                        .is_some_and(|(g, _)| self.grids[l as usize] == Some(*g))
-                };
-                let mut ready_finest = None;
-                if (first..selection.coarsest).all(ready) {
-                    for l in selection.coarsest..=selection.finest {
-                        if !ready(l) {
-                            break;
-                        }
-                        ready_finest = Some(l);
-                    }
-                }
-                selection.limit_to_ready(ready_finest);
                 (texels, Some(feed.last.clone()))
             }
+            (Terrain::Dem(_), None) => unreachable!("a DEM renderer always has a feed"),
         };
+        clipmap.limit_to_held(&self.grids);
+        clipmap.cull(
+            &view,
+            &self.mesh,
+            &self.bounds,
+            self.query(),
+            self.draw_all_sectors,
+        );
 
-        // Sectors inside the frustum.
-        let camera_from_view = camera.view_from_camera().transpose();
-        let eye_view_m = DVec3::new(0.0, 0.0, radius_m + camera.altitude_m);
-        let frustum = Frustum::new(camera_from_view, eye_view_m, fov_y_rad, aspect, near_m);
-        // Terrain radii within each level's outer ring, from the height source's local bounds
-        // (the tiles at hand when streaming).
-        let nadir = sphere::unit_vector(frame.phi_v, theta_v);
-        let terrain = &self.terrain;
-        let feed = self.feed.as_ref();
-        let radius_range_m = |level: u32| {
-            let angle = crate::clipmap::settings::level_outer_theta_rad(level);
-            let (lo, hi) = match feed {
-                Some(f) => f.height_bounds_near_m(nadir, angle),
-                None => terrain.height_bounds_near_m(nadir, angle),
-            };
-            (radius_m + lo, radius_m + hi)
-        };
-        let draw = if selection.any_drawn() {
-            DrawList::build(
-                &self.mesh,
-                &self.bounds,
-                &selection,
-                (!self.draw_all_sectors).then_some(&frustum),
-                radius_range_m,
-            )
-        } else {
-            DrawList::default()
-        };
-
-        let mut levels = vec![LevelUniforms::default(); MAX_LEVELS as usize];
-        for (level, grid) in self.grids.iter().enumerate() {
-            if let Some(g) = grid {
-                let (gx, gy) = g.viewer_texel(phi_v, theta_v);
-                levels[level] = LevelUniforms {
-                    grid_x_viewer: gx as f32,
-                    grid_y_viewer: gy as f32,
-                    inv_dphi: (1.0 / g.dphi_rad) as f32,
-                    inv_dtheta: (1.0 / g.dtheta_rad) as f32,
-                    dtheta_rad: g.dtheta_rad as f32,
-                    _pad: [0.0; 3],
-                };
-            }
-        }
+        let levels = gpu_data::level_uniforms(&view, &self.grids);
         queue.write_buffer(&self.levels_buffer, 0, bytemuck::cast_slice(&levels));
-
-        let clip_from_view =
-            camera.clip_from_camera(aspect, near_m) * DMat4::from_mat3(camera_from_view);
-        // The approximation is only valid away from the poles (paper: π/48 < θv < 47π/48).
-        let approx_ok = theta_v > PI / 48.0 && theta_v < 47.0 * PI / 48.0;
-        let approx_start_level = if approx_ok {
-            self.settings.approx_start_level
-        } else {
-            u32::MAX / 2
-        };
-        let (el, az) = (SUN_ELEVATION_DEG.to_radians(), SUN_AZIMUTH_DEG.to_radians());
-        // Local east-north-up → view space: east = ỹ, north = −x̃, up = z̃.
-        let sun_view = DVec3::new(-el.cos() * az.cos(), el.cos() * az.sin(), el.sin());
-        let uniforms = FrameUniforms {
-            clip_from_view: clip_from_view.as_mat4().to_cols_array_2d(),
-            transform: TransformUniformsF32::from_theta_v(theta_v, Stretch::Exact),
-            sun_view: [sun_view.x as f32, sun_view.y as f32, sun_view.z as f32, 0.0],
-            radius_m: radius_m as f32,
-            eye_height_m: camera.altitude_m as f32,
-            blend_fraction: self.settings.blend_fraction,
-            texture_size: self.settings.texture_size,
-            transform_form: self.settings.transform.shader_code(),
-            approx_start_level,
-            coarsest_level: selection.coarsest,
-            finest_level: selection.finest,
-            overlay: self.overlays.bits(),
-            eye_height_lo_m: (camera.altitude_m - camera.altitude_m as f32 as f64) as f32,
-            _pad: [0; 2],
-        };
+        let uniforms = FrameUniforms::from_plan(&view, &clipmap, &self.settings, self.overlays);
         queue.write_buffer(&self.frame_buffer, 0, bytemuck::bytes_of(&uniforms));
 
-        // A frame whose camera height or culling bounds came from coarser tiles than its own
-        // is not settled, even if those tiles have arrived meanwhile.
+        // A frame whose camera height came from coarser tiles than its own is not settled,
+        // even if those tiles have arrived meanwhile.
         let mut stream = stream;
-        if let (Some(st), Some(feed)) = (&mut stream, &self.feed) {
-            st.complete &= !feed.fell_back();
+        if let Some(st) = &mut stream {
+            st.complete &= view.ground_source != HeightSource::CoarserTiles;
         }
         FrameInfo {
-            selection,
-            draw,
+            selection: clipmap.selection,
+            draw: clipmap.draw,
             texels_filled,
-            near_m,
-            height_above_terrain_m,
-            sky_linear: sky_colour(camera.altitude_m),
+            near_m: view.near_m,
+            height_above_terrain_m: view.height_above_terrain_m,
+            ground_source: view.ground_source,
+            sky_linear: view.sky_linear,
             stream,
+        }
+    }
+
+    /// Where the frame plan's terrain questions are answered: the streamed tiles for a DEM,
+    /// the terrain function for the analytic planet.
+    fn query(&self) -> &dyn TerrainQuery {
+        match &self.feed {
+            Some(feed) => feed,
+            None => &self.terrain,
         }
     }
 
@@ -738,12 +570,4 @@ impl TerrainRenderer {
             pass.draw_indexed(range.clone(), 0, 0..1);
         }
     }
-}
-
-/// Background: blue sky low down, fading to black between 10 km and 1000 km.
-fn sky_colour(altitude_m: f64) -> [f64; 3] {
-    let t = ((altitude_m.max(1.0).log10() - 4.0) / 2.0).clamp(0.0, 1.0);
-    let low = [0.30, 0.50, 0.80];
-    let high = [0.002, 0.002, 0.006];
-    std::array::from_fn(|i| low[i] + (high[i] - low[i]) * t)
 }

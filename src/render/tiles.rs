@@ -8,7 +8,6 @@
 
 use std::collections::HashMap;
 
-use bytemuck::Zeroable;
 use wgpu::util::DeviceExt;
 
 use crate::dem::pyramid::Pyramid;
@@ -17,37 +16,8 @@ use crate::stream::{TileData, TileKey};
 use super::fill::{DispatchParams, compute_pipeline};
 use super::shader;
 
-pub mod gpu_data {
-    use bytemuck::{Pod, Zeroable};
-
-    /// GPU twin: `DemFillParams` in `shaders/fill_dem.wgsl`.
-    #[repr(C)]
-    #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
-    pub struct DemFillParams {
-        pub base: [i32; 2],
-        pub frac: [f32; 2],
-        pub step: [f32; 2],
-        pub slot0: [u32; 2],
-        pub extent: [u32; 2],
-        pub layer: u32,
-        pub size: u32,
-        pub page_base: u32,
-        pub tiles_x: u32,
-        pub cols: i32,
-        pub rows: i32,
-        pub tile_size: i32,
-        pub wraps: u32,
-        pub cap_north: [f32; 2],
-        pub cap_south: [f32; 2],
-        pub decode: [f32; 2],
-        pub _pad: [u32; 2],
-    }
-}
-
-pub use gpu_data::DemFillParams;
-
-const NO_SLOT: u32 = u32::MAX;
-const WORKGROUP: u32 = 8;
+pub use super::gpu_data::DemFillParams;
+use super::shader::{NO_SLOT, WORKGROUP_SIZE};
 
 /// Tiles resident on the GPU.
 pub struct GpuTileCache {
@@ -338,8 +308,8 @@ impl DemFillPass {
         for (i, p) in jobs.iter().enumerate() {
             pass.set_bind_group(0, bind_group, &[self.params.offset(i)]);
             pass.dispatch_workgroups(
-                p.extent[0].div_ceil(WORKGROUP),
-                p.extent[1].div_ceil(WORKGROUP),
+                p.extent[0].div_ceil(WORKGROUP_SIZE),
+                p.extent[1].div_ceil(WORKGROUP_SIZE),
                 1,
             );
             texels += p.extent[0] as u64 * p.extent[1] as u64;
@@ -350,9 +320,4 @@ impl DemFillPass {
     pub fn capacity(&self) -> u32 {
         self.params.capacity()
     }
-}
-
-/// A zeroed parameter block (for building jobs field by field).
-pub fn empty_params() -> DemFillParams {
-    DemFillParams::zeroed()
 }

@@ -636,6 +636,7 @@ mod tests {
             texels_filled: 0,
             near_m: 1.0,
             height_above_terrain_m: 10_000.0,
+            ground_source: crate::plan::HeightSource::Tiles,
             sky_linear: [0.0; 3],
             stream: Some(Default::default()),
         };

@@ -1,0 +1,168 @@
+//! The spherical clipmap's part of a frame plan (spherical-clipmaps.md): which levels are drawn
+//! and why (eq. 6 with the mountain term, eq. 7–8), the map-space window each level texture
+//! must hold and the rectangles to refill (§4.1, toroidal updates), which ring sectors lie in
+//! the frustum, and which wanted levels still wait for data.
+//!
+//! Built in three steps around the renderer's fills, all f64 and free of wgpu:
+//! [`ClipmapPlan::new`] (levels, windows) → the renderer fills what it can → [`ClipmapPlan::
+//! limit_to_held`] (a level is drawn only when it and every coarser one hold their window) →
+//! [`ClipmapPlan::cull`] (sectors).
+
+use std::f64::consts::PI;
+
+use crate::clipmap::levels::{GridRect, LevelGrid};
+use crate::clipmap::selection::{DrawList, Frustum, LevelSelection, SectorBounds};
+use crate::clipmap::settings::level_outer_theta_rad;
+use crate::clipmap::{ClipmapSettings, RingMesh};
+use crate::geo::visibility;
+
+use super::{TerrainQuery, ViewPlan};
+
+/// One level's update: the window its texture must hold and the rectangles that differ from
+/// what it holds now (empty when nothing moved).
+#[derive(Clone, Debug, PartialEq)]
+pub struct LevelFill {
+    pub grid: LevelGrid,
+    pub rects: Vec<GridRect>,
+}
+
+impl LevelFill {
+    pub fn texels(&self) -> u64 {
+        self.rects.iter().map(GridRect::texels).sum()
+    }
+}
+
+/// What the clipmap draws and fills this frame.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ClipmapPlan {
+    /// Levels drawn, and why each other one is not.
+    pub selection: LevelSelection,
+    /// Windows of the drawn levels and of the level their outer rings blend into, coarse to
+    /// fine.
+    pub fills: Vec<LevelFill>,
+    /// Index ranges of the sectors inside the frustum (empty until [`ClipmapPlan::cull`]).
+    pub draw: DrawList,
+    /// First level of the paper's trigonometric approximation (eq. 11, 14), or `None` where it
+    /// is invalid (within π/48 of a pole, the paper's Fig. 12 range).
+    pub approx_start_level: Option<u32>,
+}
+
+impl ClipmapPlan {
+    /// Levels by the visibility bounds and the windows they need. `held[level]` is the window
+    /// each level texture holds now (`None`: never filled).
+    pub fn new(
+        view: &ViewPlan,
+        settings: &ClipmapSettings,
+        held: &[Option<LevelGrid>],
+        height_range_m: (f64, f64),
+        draw_all_levels: bool,
+    ) -> Self {
+        let (hmin, hmax) = height_range_m;
+        let theta_max =
+            visibility::theta_tilde_max(view.radius_m, view.camera.altitude_m, hmin, hmax);
+        let theta_min = visibility::theta_tilde_min(
+            view.radius_m,
+            view.height_above_terrain_m,
+            view.fov_y_rad,
+            view.height_px,
+        );
+        let mut selection = LevelSelection::new(settings.levels, theta_max, theta_min);
+        if draw_all_levels {
+            selection.coarsest = 0;
+            selection.finest = settings.levels - 1;
+        }
+        let first = selection.coarsest.saturating_sub(1);
+        let fills = (first..=selection.finest)
+            .map(|level| {
+                let old = held[level as usize];
+                let grid = LevelGrid::for_viewer(
+                    level,
+                    settings.texture_size,
+                    view.phi_v_rad,
+                    view.theta_v_rad,
+                    old.as_ref(),
+                );
+                LevelFill {
+                    grid,
+                    rects: grid.dirty_since(old.as_ref()),
+                }
+            })
+            .collect();
+        let theta_v = view.theta_v_rad;
+        let approx_ok = theta_v > PI / 48.0 && theta_v < 47.0 * PI / 48.0;
+        Self {
+            selection,
+            fills,
+            draw: DrawList::default(),
+            approx_start_level: approx_ok.then_some(settings.approx_start_level),
+        }
+    }
+
+    /// After the fills: draws down to the last level that, like every coarser drawn level and
+    /// the level they blend into, holds its window; the wanted levels beyond it wait (the next
+    /// coarser level's cap covers them, never garbage).
+    pub fn limit_to_held(&mut self, held: &[Option<LevelGrid>]) {
+        let holds = |level: u32| {
+            self.fills
+                .iter()
+                .find(|f| f.grid.level == level)
+                .is_some_and(|f| held[level as usize] == Some(f.grid))
+        };
+        let first = self.selection.coarsest.saturating_sub(1);
+        let mut ready_finest = None;
+        if (first..self.selection.coarsest).all(holds) {
+            for level in self.selection.drawn_levels() {
+                if !holds(level) {
+                    break;
+                }
+                ready_finest = Some(level);
+            }
+        }
+        self.selection.limit_to_ready(ready_finest);
+    }
+
+    /// The sectors of the drawn levels inside the view frustum (every sector when
+    /// `draw_all_sectors`), bounded by the terrain's local height range around the nadir.
+    pub fn cull(
+        &mut self,
+        view: &ViewPlan,
+        mesh: &RingMesh,
+        bounds: &SectorBounds,
+        query: &dyn TerrainQuery,
+        draw_all_sectors: bool,
+    ) {
+        if !self.selection.any_drawn() {
+            self.draw = DrawList::default();
+            return;
+        }
+        let frustum = Frustum::new(
+            view.camera_from_view,
+            view.eye_view_m(),
+            view.fov_y_rad,
+            view.aspect,
+            view.near_m,
+        );
+        let nadir = view.nadir();
+        let radius_range_m = |level: u32| {
+            let (lo, hi) = query.height_bounds_near_m(nadir, level_outer_theta_rad(level));
+            (view.radius_m + lo, view.radius_m + hi)
+        };
+        self.draw = DrawList::build(
+            mesh,
+            bounds,
+            &self.selection,
+            (!draw_all_sectors).then_some(&frustum),
+            radius_range_m,
+        );
+    }
+
+    /// Levels wanted but waiting for data.
+    pub fn waiting(&self) -> Vec<u32> {
+        self.selection.waiting()
+    }
+
+    /// Texels the plan asks to refill.
+    pub fn texels_to_fill(&self) -> u64 {
+        self.fills.iter().map(LevelFill::texels).sum()
+    }
+}

@@ -1,0 +1,173 @@
+//! One frame, planned in f64 before anything reaches the GPU.
+//!
+//! A frame is decided in two layers:
+//!
+//! | layer | what it decides | where |
+//! | --- | --- | --- |
+//! | [`ViewPlan`] | what every LOD method shares: the viewer in map space (φv, θv), the ground under the camera and where that height came from, near plane, projection, sun, sky | here |
+//! | a LOD method's plan | what that method draws and fills: for the spherical clipmap ([`ClipmapPlan`]) the levels and why, each level's texture window and the texels to refill, the ring sectors inside the frustum, the levels waiting for data | [`clipmap`] |
+//!
+//! [`FramePlan`] holds both. Nothing here touches wgpu: tests build plans on a machine with no
+//! adapter. `render::gpu_data` is the one step that turns a plan into f32 GPU data, and the
+//! renderer only executes it (fills, uploads, draws). A close-up LOD method (geomipmapping, the
+//! projected grid) adds its own plan beside `clipmap`, built from the same [`ViewPlan`] and
+//! [`TerrainQuery`], and tells the clipmap how far its reach extends.
+//!
+//! Conventions: angles in radians unless the name says `_deg`; lengths in metres; view space
+//! has the planet's centre at the origin and the viewer on +z̃ (spherical-clipmaps.md §3).
+
+pub mod clipmap;
+
+use std::f64::consts::TAU;
+
+use glam::{DMat3, DMat4, DVec3};
+
+use crate::geo::camera::Camera;
+use crate::geo::{projection, sphere};
+use crate::terrain::Terrain;
+
+pub use clipmap::{ClipmapPlan, LevelFill};
+
+/// Direction to the sun in the viewer's local frame: 35° above the horizon in the south-east,
+/// so every named scene is lit from the same side (a fixed world sun would leave some dark).
+pub const SUN_ELEVATION_DEG: f64 = 35.0;
+pub const SUN_AZIMUTH_DEG: f64 = 135.0;
+
+/// Where a height the plan used came from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum HeightSource {
+    /// The terrain function itself (the analytic planet, or a DEM sampled directly).
+    Exact,
+    /// The finest streamed tiles that cover the point.
+    Tiles,
+    /// Streamed tiles of a coarser level than the point's own, which has not arrived yet: the
+    /// frame is not settled until it has.
+    CoarserTiles,
+}
+
+/// The terrain questions a frame plan asks, answered either by the terrain function
+/// ([`Terrain`]) or, while streaming, by the tiles at hand (`render::dem_feed::DemFeed`), so
+/// the render thread never waits for the file.
+pub trait TerrainQuery {
+    fn radius_m(&self) -> f64;
+    /// Lowest and highest terrain anywhere (the horizon bound, eq. 6).
+    fn height_range_m(&self) -> (f64, f64);
+    /// The height under the camera and where it came from.
+    fn ground_m(&self, lat_deg: f64, lon_deg: f64) -> (f64, HeightSource);
+    /// Heights bounding the terrain within `angle_rad` of the unit vector `u` (culling).
+    fn height_bounds_near_m(&self, u: DVec3, angle_rad: f64) -> (f64, f64);
+}
+
+impl TerrainQuery for Terrain {
+    fn radius_m(&self) -> f64 {
+        Terrain::radius_m(self)
+    }
+    fn height_range_m(&self) -> (f64, f64) {
+        Terrain::height_range_m(self)
+    }
+    fn ground_m(&self, lat_deg: f64, lon_deg: f64) -> (f64, HeightSource) {
+        (
+            self.height_at_lat_lon_m(lat_deg, lon_deg),
+            HeightSource::Exact,
+        )
+    }
+    fn height_bounds_near_m(&self, u: DVec3, angle_rad: f64) -> (f64, f64) {
+        Terrain::height_bounds_near_m(self, u, angle_rad)
+    }
+}
+
+/// What every LOD method of a frame shares (f64).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ViewPlan {
+    pub camera: Camera,
+    pub width_px: u32,
+    pub height_px: u32,
+    pub radius_m: f64,
+    /// The viewer's longitude in [0, 2π) and colatitude θv (map space).
+    pub phi_v_rad: f64,
+    pub theta_v_rad: f64,
+    /// Terrain height under the camera and where it came from.
+    pub ground_m: f64,
+    pub ground_source: HeightSource,
+    pub height_above_terrain_m: f64,
+    pub near_m: f64,
+    pub aspect: f64,
+    pub fov_y_rad: f64,
+    /// Camera axes in view space (columns: right, up, back), and its inverse rotation.
+    pub camera_from_view: DMat3,
+    /// Projection (reversed-Z, infinite far plane) times the view-to-camera rotation: view-space
+    /// offsets from the eye to clip space.
+    pub clip_from_view: DMat4,
+    /// Unit vector to the sun in view space.
+    pub sun_view: DVec3,
+    /// Linear RGB background: sky blue near the ground, black in space.
+    pub sky_linear: [f64; 3],
+}
+
+impl ViewPlan {
+    pub fn new(camera: &Camera, width_px: u32, height_px: u32, query: &dyn TerrainQuery) -> Self {
+        let radius_m = query.radius_m();
+        let frame = camera.view_frame();
+        let (ground_m, ground_source) = query.ground_m(camera.lat_deg, camera.lon_deg);
+        let height_above_terrain_m = camera.altitude_m - ground_m;
+        let near_m = projection::near_plane_m(height_above_terrain_m);
+        let aspect = width_px as f64 / height_px.max(1) as f64;
+        let camera_from_view = camera.view_from_camera().transpose();
+        let clip_from_view =
+            camera.clip_from_camera(aspect, near_m) * DMat4::from_mat3(camera_from_view);
+        let (el, az) = (SUN_ELEVATION_DEG.to_radians(), SUN_AZIMUTH_DEG.to_radians());
+        // Local east-north-up → view space: east = ỹ, north = −x̃, up = z̃.
+        let sun_view = DVec3::new(-el.cos() * az.cos(), el.cos() * az.sin(), el.sin());
+        Self {
+            camera: *camera,
+            width_px,
+            height_px,
+            radius_m,
+            phi_v_rad: frame.phi_v.rem_euclid(TAU),
+            theta_v_rad: frame.theta_v,
+            ground_m,
+            ground_source,
+            height_above_terrain_m,
+            near_m,
+            aspect,
+            fov_y_rad: camera.fov_y_rad(),
+            camera_from_view,
+            clip_from_view,
+            sun_view,
+            sky_linear: sky_colour(camera.altitude_m),
+        }
+    }
+
+    /// The eye in view space.
+    pub fn eye_view_m(&self) -> DVec3 {
+        DVec3::new(0.0, 0.0, self.radius_m + self.camera.altitude_m)
+    }
+
+    /// The viewer's unit vector in world space (the nadir).
+    pub fn nadir(&self) -> DVec3 {
+        sphere::unit_vector(self.phi_v_rad, self.theta_v_rad)
+    }
+}
+
+/// Background: blue sky low down, fading to black between 10 km and 1000 km.
+fn sky_colour(altitude_m: f64) -> [f64; 3] {
+    let t = ((altitude_m.max(1.0).log10() - 4.0) / 2.0).clamp(0.0, 1.0);
+    let low = [0.30, 0.50, 0.80];
+    let high = [0.002, 0.002, 0.006];
+    std::array::from_fn(|i| low[i] + (high[i] - low[i]) * t)
+}
+
+/// A whole frame's plan: the shared view and each LOD method's part.
+#[derive(Clone, Debug)]
+pub struct FramePlan {
+    pub view: ViewPlan,
+    pub clipmap: ClipmapPlan,
+}
+
+impl FramePlan {
+    /// True when the plan used no stand-in data: every wanted level holds its window and the
+    /// camera's height came from its own tiles.
+    pub fn settled(&self) -> bool {
+        self.view.ground_source != HeightSource::CoarserTiles && self.clipmap.waiting().is_empty()
+    }
+}

@@ -1,0 +1,435 @@
+//! The f64 → f32 boundary and the Rust ↔ WGSL contract.
+//!
+//! Every struct the GPU reads is declared here (or, for the f32 twins the tests share, named
+//! here), with its byte layout described by [`GpuStruct`]; `tests/shader_contract.rs` checks
+//! each description against naga's reflection of the assembled shader modules (size, member
+//! offsets, member types), with no GPU. The conversions from a frame plan (f64 metres and
+//! radians) into these structs are the only place where a frame's metres and radians become f32
+//! (the static ring mesh rounds its p̃ once, at build time, in `clipmap::mesh`).
+
+use bytemuck::{Pod, Zeroable};
+
+use crate::clipmap::levels::{GridRect, LevelGrid};
+use crate::clipmap::{ClipmapSettings, RingVertex};
+use crate::geo::map_transform::{Stretch, TransformUniformsF32};
+use crate::plan::{ClipmapPlan, ViewPlan};
+use crate::terrain::analytic::{AnalyticPlanet, SCALES, WaveParams};
+
+use super::fill::band_limit_texel_m;
+use super::shader::{self, MAX_LEVELS};
+
+// ---------------------------------------------------------------------------------------------
+// Layout descriptions
+
+/// One member of a GPU struct as Rust lays it out.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct FieldLayout {
+    pub name: &'static str,
+    pub offset: usize,
+    pub size: usize,
+    /// The WGSL type this Rust type stands for (`vec4<f32>`, `mat4x4<f32>`, `array<Wave, 10>`).
+    pub wgsl_type: String,
+}
+
+/// A GPU struct as Rust lays it out: what `tests/shader_contract.rs` compares with naga.
+/// Padding members (names starting with `_`) are not listed: only the size covers them.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct StructLayout {
+    pub wgsl_name: &'static str,
+    pub size: usize,
+    pub fields: Vec<FieldLayout>,
+}
+
+/// A Rust type that stands for a WGSL type.
+pub trait WgslType {
+    fn wgsl_type() -> String;
+}
+
+/// A `#[repr(C)]` struct with a WGSL twin of the name `WGSL_NAME`.
+pub trait GpuStruct: Pod {
+    const WGSL_NAME: &'static str;
+    fn layout() -> StructLayout;
+}
+
+macro_rules! wgsl_types {
+    ($($ty:ty => $wgsl:literal),* $(,)?) => {
+        $(impl WgslType for $ty {
+            fn wgsl_type() -> String {
+                $wgsl.to_string()
+            }
+        })*
+    };
+}
+
+wgsl_types! {
+    f32 => "f32",
+    u32 => "u32",
+    i32 => "i32",
+    [f32; 2] => "vec2<f32>",
+    [f32; 3] => "vec3<f32>",
+    [f32; 4] => "vec4<f32>",
+    [u32; 2] => "vec2<u32>",
+    [i32; 2] => "vec2<i32>",
+    [[f32; 4]; 4] => "mat4x4<f32>",
+}
+
+/// A fixed-size array of GPU structs.
+impl<T: GpuStruct, const N: usize> WgslType for [T; N] {
+    fn wgsl_type() -> String {
+        format!("array<{}, {N}>", T::WGSL_NAME)
+    }
+}
+
+/// The WGSL type of a field, from its Rust type.
+pub fn wgsl_type_of<T: WgslType>(_: &T) -> String {
+    T::wgsl_type()
+}
+
+/// Declares that `$ty` is the twin of the WGSL struct `$wgsl` with the listed (non-padding)
+/// members, in any order: the contract test finds each by name.
+#[macro_export]
+macro_rules! gpu_struct {
+    ($ty:ty as $wgsl:literal { $($field:ident),* $(,)? }) => {
+        impl $crate::render::gpu_data::GpuStruct for $ty {
+            const WGSL_NAME: &'static str = $wgsl;
+            fn layout() -> $crate::render::gpu_data::StructLayout {
+                let value = <$ty as ::bytemuck::Zeroable>::zeroed();
+                $crate::render::gpu_data::StructLayout {
+                    wgsl_name: $wgsl,
+                    size: ::std::mem::size_of::<$ty>(),
+                    fields: vec![$($crate::render::gpu_data::FieldLayout {
+                        name: stringify!($field),
+                        offset: ::std::mem::offset_of!($ty, $field),
+                        size: ::std::mem::size_of_val(&value.$field),
+                        wgsl_type: $crate::render::gpu_data::wgsl_type_of(&value.$field),
+                    }),*],
+                }
+            }
+        }
+        impl $crate::render::gpu_data::WgslType for $ty {
+            fn wgsl_type() -> String {
+                $wgsl.to_string()
+            }
+        }
+    };
+}
+
+// ---------------------------------------------------------------------------------------------
+// The structs
+
+/// `FrameUniforms` in `shaders/terrain.wgsl`: one per frame.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct FrameUniforms {
+    pub clip_from_view: [[f32; 4]; 4],
+    pub transform: TransformUniformsF32,
+    pub sun_view: [f32; 4],
+    pub radius_m: f32,
+    pub eye_height_m: f32,
+    pub blend_fraction: f32,
+    pub texture_size: u32,
+    pub transform_form: u32,
+    pub approx_start_level: u32,
+    pub coarsest_level: u32,
+    pub finest_level: u32,
+    pub overlay: u32,
+    /// The eye's altitude minus `eye_height_m` (f64 − f32): a 1 mm climb at 9 km is below
+    /// one f32 step of the altitude, so the shader adds this low part after the difference.
+    pub eye_height_lo_m: f32,
+    pub _pad: [u32; 2],
+}
+
+/// `LevelUniforms` in `shaders/terrain.wgsl`: one per level, `MAX_LEVELS` of them.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct LevelUniforms {
+    pub grid_x_viewer: f32,
+    pub grid_y_viewer: f32,
+    pub inv_dphi: f32,
+    pub inv_dtheta: f32,
+    pub dtheta_rad: f32,
+    pub _pad: [f32; 3],
+}
+
+/// `FillParams` in `shaders/fill_analytic.wgsl`: one per dispatch of the analytic fill.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct FillParams {
+    pub ref_trig: [f32; 4],
+    pub spacing: [f32; 4],
+    pub slot0: [u32; 2],
+    pub extent: [u32; 2],
+    pub layer: u32,
+    pub size: u32,
+    pub _pad: [u32; 2],
+    pub waves: [WaveParams; SCALES],
+}
+
+/// `DemFillParams` in `shaders/fill_dem.wgsl`: one per dispatch of the DEM fill.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct DemFillParams {
+    pub base: [i32; 2],
+    pub frac: [f32; 2],
+    pub step: [f32; 2],
+    pub slot0: [u32; 2],
+    pub extent: [u32; 2],
+    pub layer: u32,
+    pub size: u32,
+    pub page_base: u32,
+    pub tiles_x: u32,
+    pub cols: i32,
+    pub rows: i32,
+    pub tile_size: i32,
+    pub wraps: u32,
+    pub cap_north: [f32; 2],
+    pub cap_south: [f32; 2],
+    pub decode: [f32; 2],
+    pub _pad: [u32; 2],
+}
+
+gpu_struct!(TransformUniformsF32 as "TransformUniforms" {
+    sin_theta_v, cos_theta_v, theta_v, pi_minus_theta_v, stretch,
+});
+gpu_struct!(FrameUniforms as "FrameUniforms" {
+    clip_from_view, transform, sun_view, radius_m, eye_height_m, blend_fraction, texture_size,
+    transform_form, approx_start_level, coarsest_level, finest_level, overlay, eye_height_lo_m,
+});
+gpu_struct!(LevelUniforms as "LevelUniforms" {
+    grid_x_viewer, grid_y_viewer, inv_dphi, inv_dtheta, dtheta_rad,
+});
+gpu_struct!(WaveParams as "Wave" { omega_a, omega_b, phases });
+gpu_struct!(FillParams as "FillParams" { ref_trig, spacing, slot0, extent, layer, size, waves });
+gpu_struct!(DemFillParams as "DemFillParams" {
+    base, frac, step, slot0, extent, layer, size, page_base, tiles_x, cols, rows, tile_size,
+    wraps, cap_north, cap_south, decode,
+});
+gpu_struct!(RingVertex as "RingVertex" {
+    p_tilde, one_minus_cos, theta_tilde_rad, ring_t, level, seam_side,
+});
+
+/// The vertex buffer layout of [`RingVertex`] (locations as in `shaders/terrain.wgsl`).
+pub const RING_VERTEX_ATTRIBUTES: [wgpu::VertexAttribute; 6] = wgpu::vertex_attr_array![
+    0 => Float32x3, 1 => Float32, 2 => Float32, 3 => Float32, 4 => Uint32, 5 => Float32
+];
+
+// ---------------------------------------------------------------------------------------------
+// The contract each assembled module must keep
+
+/// A buffer binding: `@group(group) @binding(binding)` holds the WGSL type `wgsl_type`.
+#[derive(Clone, Debug)]
+pub struct BufferBinding {
+    pub group: u32,
+    pub binding: u32,
+    pub wgsl_type: String,
+}
+
+/// What Rust assumes of one assembled shader module.
+#[derive(Clone, Debug)]
+pub struct PassContract {
+    pub file: &'static str,
+    /// The assembled source: generated constants, the shared library, the pass.
+    pub source: String,
+    pub structs: Vec<StructLayout>,
+    pub buffers: Vec<BufferBinding>,
+    /// The vertex input struct and the buffer layout Rust gives it.
+    pub vertex: Option<(StructLayout, &'static [wgpu::VertexAttribute])>,
+    /// `@workgroup_size` of the compute entry point `cs_main`, which Rust's dispatch counts use.
+    pub workgroup_size: Option<[u32; 3]>,
+}
+
+/// Every shader module globe builds, with what Rust assumes of it.
+pub fn pass_contracts() -> Vec<PassContract> {
+    let buffer = |binding, wgsl_type: String| BufferBinding {
+        group: 0,
+        binding,
+        wgsl_type,
+    };
+    let workgroup = [shader::WORKGROUP_SIZE, shader::WORKGROUP_SIZE, 1];
+    vec![
+        PassContract {
+            file: "terrain.wgsl",
+            source: shader::assemble(shader::TERRAIN),
+            structs: vec![
+                FrameUniforms::layout(),
+                LevelUniforms::layout(),
+                TransformUniformsF32::layout(),
+            ],
+            buffers: vec![
+                buffer(0, FrameUniforms::wgsl_type()),
+                buffer(1, <[LevelUniforms; MAX_LEVELS as usize]>::wgsl_type()),
+            ],
+            vertex: Some((RingVertex::layout(), &RING_VERTEX_ATTRIBUTES)),
+            workgroup_size: None,
+        },
+        PassContract {
+            file: "fill_analytic.wgsl",
+            source: shader::assemble(shader::FILL_ANALYTIC),
+            structs: vec![FillParams::layout(), WaveParams::layout()],
+            buffers: vec![buffer(0, FillParams::wgsl_type())],
+            vertex: None,
+            workgroup_size: Some(workgroup),
+        },
+        PassContract {
+            file: "fill_dem.wgsl",
+            source: shader::assemble(shader::FILL_DEM),
+            structs: vec![DemFillParams::layout()],
+            buffers: vec![buffer(0, DemFillParams::wgsl_type()), {
+                // The page table: one slot index per pyramid tile.
+                buffer(3, "array<u32>".to_string())
+            }],
+            vertex: None,
+            workgroup_size: Some(workgroup),
+        },
+    ]
+}
+
+// ---------------------------------------------------------------------------------------------
+// Plan → GPU data (f64 → f32)
+
+/// Debug overlays drawn by the terrain pass.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Overlays {
+    /// Each level in its own colour (`--overlay levels`).
+    pub levels: bool,
+}
+
+impl Overlays {
+    /// The `overlay` bit field of [`FrameUniforms`] (bits are generated WGSL constants).
+    pub fn bits(self) -> u32 {
+        if self.levels {
+            shader::OVERLAY_LEVELS
+        } else {
+            0
+        }
+    }
+}
+
+impl FrameUniforms {
+    /// The frame's uniforms from its plan.
+    pub fn from_plan(
+        view: &ViewPlan,
+        clipmap: &ClipmapPlan,
+        settings: &ClipmapSettings,
+        overlays: Overlays,
+    ) -> Self {
+        let altitude_m = view.camera.altitude_m;
+        let sun = view.sun_view.as_vec3();
+        Self {
+            clip_from_view: view.clip_from_view.as_mat4().to_cols_array_2d(),
+            transform: TransformUniformsF32::from_theta_v(view.theta_v_rad, Stretch::Exact),
+            sun_view: [sun.x, sun.y, sun.z, 0.0],
+            radius_m: view.radius_m as f32,
+            eye_height_m: altitude_m as f32,
+            blend_fraction: settings.blend_fraction,
+            texture_size: settings.texture_size,
+            transform_form: settings.transform.shader_code(),
+            // Beyond every level: the stable form everywhere.
+            approx_start_level: clipmap.approx_start_level.unwrap_or(u32::MAX / 2),
+            coarsest_level: clipmap.selection.coarsest,
+            finest_level: clipmap.selection.finest,
+            overlay: overlays.bits(),
+            eye_height_lo_m: (altitude_m - altitude_m as f32 as f64) as f32,
+            _pad: [0; 2],
+        }
+    }
+}
+
+/// Per level, where the viewer sits in the texture it holds (texel units, modulo the size) and
+/// its spacing; zero for levels never filled.
+pub fn level_uniforms(view: &ViewPlan, held: &[Option<LevelGrid>]) -> Vec<LevelUniforms> {
+    let mut levels = vec![LevelUniforms::default(); MAX_LEVELS as usize];
+    for (uniforms, grid) in levels.iter_mut().zip(held) {
+        if let Some(g) = grid {
+            let (gx, gy) = g.viewer_texel(view.phi_v_rad, view.theta_v_rad);
+            *uniforms = LevelUniforms {
+                grid_x_viewer: gx as f32,
+                grid_y_viewer: gy as f32,
+                inv_dphi: (1.0 / g.dphi_rad) as f32,
+                inv_dtheta: (1.0 / g.dtheta_rad) as f32,
+                dtheta_rad: g.dtheta_rad as f32,
+                _pad: [0.0; 3],
+            };
+        }
+    }
+    levels
+}
+
+impl FillParams {
+    /// One rectangle of the analytic planet's fill: its waves relative to the rectangle's first
+    /// grid point, so the GPU adds only small angle offsets.
+    pub fn new(planet: &AnalyticPlanet, grid: &LevelGrid, rect: &GridRect) -> Self {
+        let phi_r = rect.gx0 as f64 * grid.dphi_rad;
+        let theta_r = rect.gy0 as f64 * grid.dtheta_rad;
+        let (st, ct) = theta_r.sin_cos();
+        let (sp, cp) = phi_r.sin_cos();
+        let s = grid.size as i64;
+        Self {
+            ref_trig: [st as f32, ct as f32, sp as f32, cp as f32],
+            spacing: [grid.dphi_rad as f32, grid.dtheta_rad as f32, 0.0, 0.0],
+            slot0: [rect.gx0.rem_euclid(s) as u32, rect.gy0.rem_euclid(s) as u32],
+            extent: [rect.width, rect.height],
+            layer: grid.level,
+            size: grid.size,
+            _pad: [0; 2],
+            waves: planet.gpu_waves(phi_r, theta_r, band_limit_texel_m(grid, planet.radius_m)),
+        }
+    }
+}
+
+/// One dispatch of the DEM fill in f64: a rectangle of a level texture whose pyramid pixel
+/// coordinates are linear in the grid indices (the feed splits rectangles where rows fold over
+/// a pole and at a regional grid's 360° wrap).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DemFillJob {
+    /// Pyramid pixel (col, row) of the job's first grid point: integer part and fraction.
+    pub base: [i64; 2],
+    pub frac: [f64; 2],
+    /// Pixels per grid step (d col / d gx, d row / d gy).
+    pub step: [f64; 2],
+    /// Texel of the first grid point (toroidal) and the rectangle's size.
+    pub slot0: [u32; 2],
+    pub extent: [u32; 2],
+    /// Level texture (layer) and its size.
+    pub layer: u32,
+    pub size: u32,
+    /// First page-table entry of the pyramid level and its tiles per row.
+    pub page_base: u32,
+    pub tiles_x: u32,
+    /// The pyramid level's grid.
+    pub cols: i64,
+    pub rows: i64,
+    pub tile_size: i64,
+    pub wraps: bool,
+    /// Pole caps: rows from the outermost row to the pole (0: no cap) and the pole's height.
+    pub cap_north: [f64; 2],
+    pub cap_south: [f64; 2],
+    /// metres = offset + quantum · code
+    pub decode_offset_m: f64,
+    pub decode_quantum_m: f64,
+}
+
+impl From<&DemFillJob> for DemFillParams {
+    fn from(j: &DemFillJob) -> Self {
+        let pair = |v: [f64; 2]| [v[0] as f32, v[1] as f32];
+        Self {
+            base: [j.base[0] as i32, j.base[1] as i32],
+            frac: pair(j.frac),
+            step: pair(j.step),
+            slot0: j.slot0,
+            extent: j.extent,
+            layer: j.layer,
+            size: j.size,
+            page_base: j.page_base,
+            tiles_x: j.tiles_x,
+            cols: j.cols as i32,
+            rows: j.rows as i32,
+            tile_size: j.tile_size as i32,
+            wraps: j.wraps as u32,
+            cap_north: pair(j.cap_north),
+            cap_south: pair(j.cap_south),
+            decode: [j.decode_offset_m as f32, j.decode_quantum_m as f32],
+            _pad: [0; 2],
+        }
+    }
+}
