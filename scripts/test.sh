@@ -41,6 +41,7 @@ python3 scripts/map_transform_vectors.py --check tests/data/map_transform_vector
 
 export GLOBE_REQUIRE_GPU=1
 export GLOBE_REQUIRE_DATA=1
-# Mesa's window-system layer complains when this is unset; the tests never open a window.
+# Mesa's device-select layer probes the display (and complains when this is unset) for GPU tests
+# that create their instance in-process; the `globe` binary switches that layer off itself.
 export XDG_RUNTIME_DIR="${XDG_RUNTIME_DIR:-$(mktemp -d)}"
 cargo test --workspace "$@"

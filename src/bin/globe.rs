@@ -326,6 +326,10 @@ fn main() -> ExitCode {
 
 fn run() -> anyhow::Result<ExitCode> {
     let cli = Cli::parse();
+    if cli.command.is_some() {
+        // SAFETY: nothing has started a thread yet (argument parsing only).
+        unsafe { globe::render::context::leave_the_display_alone() };
+    }
     match cli.command {
         Some(Command::Scenes) => {
             print_scenes();

@@ -2,6 +2,29 @@
 
 use super::RenderError;
 
+/// Keeps a headless process off the windowing system.
+///
+/// Mesa's device-selection layer (`VK_LAYER_MESA_device_select`, an implicit Vulkan layer)
+/// connects to the Wayland and X11 displays to find "the display's GPU" as soon as an instance
+/// enables the surface extensions, which wgpu always does; on a machine without a display it
+/// prints `error: XDG_RUNTIME_DIR is invalid or not set in the environment.`. A headless
+/// command has no display to match, so this switches the layer off with its documented variable
+/// `NODEVICE_SELECT=1`, unless the user chose a device (`MESA_VK_DEVICE_SELECT`) or set the
+/// variable themselves. Adapters are still ordered by wgpu's own preference.
+///
+/// # Safety
+///
+/// It changes the process environment: call it before any other thread starts (first thing in
+/// `main`), as [`std::env::set_var`] requires.
+pub unsafe fn leave_the_display_alone() {
+    if std::env::var_os("NODEVICE_SELECT").is_none()
+        && std::env::var_os("MESA_VK_DEVICE_SELECT").is_none()
+    {
+        // SAFETY: the caller guarantees no other thread runs yet.
+        unsafe { std::env::set_var("NODEVICE_SELECT", "1") };
+    }
+}
+
 /// Everything needed to talk to one GPU (or a software rasteriser such as lavapipe).
 pub struct GpuContext {
     pub instance: wgpu::Instance,
