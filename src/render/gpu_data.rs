@@ -13,7 +13,7 @@ use crate::clipmap::levels::{GridRect, LevelGrid};
 use crate::clipmap::{ClipmapSettings, RingVertex};
 use crate::geo::map_transform::{Stretch, TransformUniformsF32};
 use crate::plan::{ClipmapPlan, ViewPlan};
-use crate::terrain::analytic::{AnalyticPlanet, SCALES, WaveParams};
+use crate::terrain::analytic::{AnalyticPlanet, SCALES, WaveAt};
 
 use super::fill::band_limit_texel_m;
 use super::shader::{self, MAX_LEVELS};
@@ -149,6 +149,18 @@ pub struct LevelUniforms {
     pub inv_dtheta: f32,
     pub dtheta_rad: f32,
     pub _pad: [f32; 3],
+}
+
+/// One scale as the fill shader gets it. `Wave` in `shaders/fill_analytic.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct WaveParams {
+    /// ω·a (xyz) and the band-limited amplitude in metres (w).
+    pub omega_a: [f32; 4],
+    /// ω·b (xyz), w unused.
+    pub omega_b: [f32; 4],
+    /// sin, cos of the phase of wave a at the reference point, then of wave b.
+    pub phases: [f32; 4],
 }
 
 /// `FillParams` in `shaders/fill_analytic.wgsl`: one per dispatch of the analytic fill.
@@ -372,7 +384,25 @@ impl FillParams {
             layer: grid.level,
             size: grid.size,
             _pad: [0; 2],
-            waves: planet.gpu_waves(phi_r, theta_r, band_limit_texel_m(grid, planet.radius_m)),
+            waves: planet
+                .waves_at(phi_r, theta_r, band_limit_texel_m(grid, planet.radius_m))
+                .map(|w| WaveParams::from(&w)),
+        }
+    }
+}
+
+impl From<&WaveAt> for WaveParams {
+    fn from(w: &WaveAt) -> Self {
+        let (oa, ob) = (w.omega_a.as_vec3(), w.omega_b.as_vec3());
+        Self {
+            omega_a: [oa.x, oa.y, oa.z, w.amplitude_m as f32],
+            omega_b: [ob.x, ob.y, ob.z, 0.0],
+            phases: [
+                w.alpha_a_rad.sin() as f32,
+                w.alpha_a_rad.cos() as f32,
+                w.alpha_b_rad.sin() as f32,
+                w.alpha_b_rad.cos() as f32,
+            ],
         }
     }
 }

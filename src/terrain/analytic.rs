@@ -8,7 +8,7 @@
 //! The GPU twin (`shaders/fill_analytic.wgsl`) cannot evaluate ω·(u·a) in f32 (ω reaches 10⁶
 //! per radian), so it evaluates each wave relative to a reference point u_r of the region being
 //! filled: the CPU gives sin/cos of the phase at u_r, and the GPU adds ω·(Δu·a) with Δu formed
-//! from small angle offsets without cancellation (`WaveParams`).
+//! from small angle offsets without cancellation ([`WaveAt`]).
 //!
 //! Band limit: a level texture with ground spacing Δ keeps a scale at full weight when its
 //! wavelength is ≥ 4Δ and drops it below 2Δ (Nyquist), smoothly in between, so coarse levels
@@ -16,7 +16,6 @@
 
 use std::f64::consts::TAU;
 
-use bytemuck::{Pod, Zeroable};
 use glam::DVec3;
 
 /// Number of wave-product scales of the planet.
@@ -151,37 +150,35 @@ impl AnalyticPlanet {
         ((h - spread).max(lo), (h + spread).min(hi))
     }
 
-    /// Parameters for the GPU to evaluate the band-limited height near `(phi_r, theta_r)`.
-    pub fn gpu_waves(
-        &self,
-        phi_r_rad: f64,
-        theta_r_rad: f64,
-        texel_m: f64,
-    ) -> [WaveParams; SCALES] {
+    /// Each scale relative to the grid point `(phi_r, theta_r)`, band-limited to `texel_m`:
+    /// what the GPU fill needs to evaluate the height near that point with small offsets only.
+    pub fn waves_at(&self, phi_r_rad: f64, theta_r_rad: f64, texel_m: f64) -> [WaveAt; SCALES] {
         let u_r = crate::geo::sphere::unit_vector(phi_r_rad, theta_r_rad);
         std::array::from_fn(|k| {
             let s = &self.scales[k];
-            let alpha_a = (s.omega * u_r.dot(s.a) + s.phase_a).rem_euclid(TAU);
-            let alpha_b = (s.omega * u_r.dot(s.b) + s.phase_b).rem_euclid(TAU);
-            let oa = s.a * s.omega;
-            let ob = s.b * s.omega;
-            WaveParams {
-                omega_a: [
-                    oa.x as f32,
-                    oa.y as f32,
-                    oa.z as f32,
-                    (band_weight(s.wavelength_m, texel_m) * s.amplitude_m) as f32,
-                ],
-                omega_b: [ob.x as f32, ob.y as f32, ob.z as f32, 0.0],
-                phases: [
-                    alpha_a.sin() as f32,
-                    alpha_a.cos() as f32,
-                    alpha_b.sin() as f32,
-                    alpha_b.cos() as f32,
-                ],
+            WaveAt {
+                omega_a: s.a * s.omega,
+                omega_b: s.b * s.omega,
+                amplitude_m: band_weight(s.wavelength_m, texel_m) * s.amplitude_m,
+                alpha_a_rad: (s.omega * u_r.dot(s.a) + s.phase_a).rem_euclid(TAU),
+                alpha_b_rad: (s.omega * u_r.dot(s.b) + s.phase_b).rem_euclid(TAU),
             }
         })
     }
+}
+
+/// One scale seen from a reference point u_r (f64): the height near it is
+/// amplitude · sin(α_a + ω_a·Δu) · sin(α_b + ω_b·Δu) with Δu = u − u_r.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct WaveAt {
+    /// ω·a and ω·b (radians per unit of Δu).
+    pub omega_a: DVec3,
+    pub omega_b: DVec3,
+    /// The scale's amplitude after the band limit.
+    pub amplitude_m: f64,
+    /// Phases of the two waves at u_r.
+    pub alpha_a_rad: f64,
+    pub alpha_b_rad: f64,
 }
 
 /// Weight of a scale of wavelength λ in a texture of ground spacing Δ: 1 for λ ≥ 4Δ, 0 for
@@ -192,18 +189,6 @@ pub fn band_weight(wavelength_m: f64, texel_m: f64) -> f64 {
     }
     let x = ((wavelength_m / texel_m - 2.0) / 2.0).clamp(0.0, 1.0);
     x * x * (3.0 - 2.0 * x)
-}
-
-/// One scale as the fill shader gets it. GPU twin: `Wave` in `shaders/fill_analytic.wgsl`.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
-pub struct WaveParams {
-    /// ω·a (xyz) and the band-limited amplitude in metres (w).
-    pub omega_a: [f32; 4],
-    /// ω·b (xyz), w unused.
-    pub omega_b: [f32; 4],
-    /// sin, cos of the phase of wave a at the reference point, then of wave b.
-    pub phases: [f32; 4],
 }
 
 #[cfg(test)]
