@@ -12,6 +12,7 @@ use globe::render::offscreen::{COLOR_FORMAT, OffscreenFrame};
 use globe::render::{GpuContext, TerrainRenderer};
 use globe::scenes::{CAMERA_VIEW_NAME, CameraSpec, SCENES};
 use globe::stream::{FaultSettings, StreamSettings};
+use globe::terrain::Terrain;
 
 #[derive(Parser)]
 #[command(
@@ -291,9 +292,10 @@ struct ViewerArgs {
 }
 
 #[derive(Args)]
+#[group(id = "view", required = true, multiple = false, args = ["scene", "camera"])]
 struct RenderArgs {
     /// Named scene to render (see `globe scenes`).
-    #[arg(long, required_unless_present = "camera", conflicts_with = "camera")]
+    #[arg(long)]
     scene: Option<String>,
     /// Render this view instead of a scene: LAT,LON,HEIGHT,HEADING,PITCH[,ROLL] in degrees
     /// and metres (60° vertical field of view). HEIGHT is above the terrain under the camera;
