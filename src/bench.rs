@@ -2,8 +2,8 @@
 //! per-frame CPU time, GPU time (timestamp queries where the adapter has them), triangles,
 //! levels and the streaming pipeline's counters, summarised as median/min/max.
 //!
-//! A named scene or a `--camera` view is benchmarked warm: streaming settles first, then `warmup` frames, then the
-//! measured ones. The flight starts cold, as a user would: its frames never wait for tiles, and
+//! A named scene or a `--camera` view is benchmarked warm: streaming settles first, then
+//! `warmup` frames, then the measured ones. The flight starts cold, as a user would: its frames never wait for tiles, and
 //! afterwards the bench waits for streaming to settle and compares that last frame with a
 //! fresh render that had everything loaded (`final_vs_loaded_px`).
 
