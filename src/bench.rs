@@ -778,3 +778,61 @@ impl JumpRun {
         format!("{{{}}}", body.join(", "))
     }
 }
+
+/// How `bench` and `report` resolve what they render (CPU only: no frame is drawn).
+#[cfg(test)]
+mod view_tests {
+    use super::*;
+    use crate::report::{ReportOptions, views};
+
+    fn options(scene: &str, camera: Option<CameraSpec>) -> BenchOptions {
+        BenchOptions {
+            scene: scene.into(),
+            camera,
+            frames: 1,
+            warmup: 0,
+            width: 1,
+            height: 1,
+            settings: ClipmapSettings::default(),
+            stream: StreamSettings::default(),
+            passthrough: false,
+            measure_error: false,
+            frame_interval: None,
+        }
+    }
+
+    #[test]
+    fn bench_holds_a_scene_or_camera_view_and_flies_the_flight() {
+        let garda: CameraSpec = "45.65,10.65,500,90,-10".parse().unwrap();
+        assert_eq!(
+            fixed_view(&options("everest", None)).unwrap(),
+            Some(scenes::find("everest").unwrap().view())
+        );
+        assert_eq!(
+            fixed_view(&options(scenes::CAMERA_VIEW_NAME, Some(garda))).unwrap(),
+            Some(garda)
+        );
+        assert_eq!(fixed_view(&options(flight::NAME, None)).unwrap(), None);
+        let e = fixed_view(&options("nowhere", None)).unwrap_err();
+        assert!(e.to_string().ends_with("everest, flight, jump)"), "{e}");
+    }
+
+    #[test]
+    fn report_runs_the_scenes_then_the_camera_view() {
+        let garda: CameraSpec = "45.65,10.65,500,90,-10".parse().unwrap();
+        let mut o = ReportOptions {
+            scenes: vec!["space".into(), "ground".into()],
+            camera: Some(garda),
+            width: 1,
+            height: 1,
+            frames: 1,
+            base: ClipmapSettings::default(),
+            stream: StreamSettings::default(),
+        };
+        let names: Vec<String> = views(&o).unwrap().into_iter().map(|v| v.0).collect();
+        assert_eq!(names, ["space", "ground", scenes::CAMERA_VIEW_NAME]);
+        assert_eq!(views(&o).unwrap()[2].1, garda);
+        o.scenes.push("nope".into());
+        assert_eq!(views(&o).unwrap_err().name, "nope");
+    }
+}
