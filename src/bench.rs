@@ -2,8 +2,8 @@
 //! per-frame CPU time, GPU time (timestamp queries where the adapter has them), triangles,
 //! levels and the streaming pipeline's counters, summarised as median/min/max.
 //!
-//! A named scene is benchmarked warm: streaming settles first, then `warmup` frames, then the
-//! measured ones. The flight starts cold, as a user would: its frames never wait for tiles, and
+//! A named scene or a `--camera` view is benchmarked warm: streaming settles first, then
+//! `warmup` frames, then the measured ones. The flight starts cold, as a user would: its frames never wait for tiles, and
 //! afterwards the bench waits for streaming to settle and compares that last frame with a
 //! fresh render that had everything loaded (`final_vs_loaded_px`).
 
@@ -16,14 +16,36 @@ use crate::render::dem_feed::FeedFrame;
 use crate::render::offscreen::{COLOR_FORMAT, OffscreenFrame, RenderedFrame, SETTLE_TIMEOUT};
 use crate::render::timing::GpuTimer;
 use crate::render::{GpuContext, RenderError, TerrainRenderer};
-use crate::scenes::{Scene, flight};
+use crate::scenes::{self, CameraSpec, UnknownScene, flight};
 use crate::stream::StreamSettings;
 use crate::terrain::Terrain;
 
+/// The `globe bench --scene` name of the jump benchmark ([`run_jump`]).
+pub const JUMP: &str = "jump";
+/// The scenes the jump goes from and to, looked up in the registry.
+pub const JUMP_FROM: &str = "aircraft";
+pub const JUMP_TO: &str = "everest";
+
+/// Why a benchmark (or the report, which measures the same way) could not run.
+#[derive(Debug, thiserror::Error)]
+pub enum BenchError {
+    #[error(transparent)]
+    Scene(#[from] UnknownScene),
+    #[error(transparent)]
+    Render(#[from] RenderError),
+    #[error("`--scene {JUMP}` measures streaming: it needs a DEM (--dem), not the analytic planet")]
+    JumpNeedsDem,
+    #[error("cannot start the tile streamer: {0}")]
+    Streamer(#[source] std::io::Error),
+}
+
 #[derive(Clone, Debug)]
 pub struct BenchOptions {
-    /// A scene name, or `flight`.
+    /// A scene name, or `flight`; with [`BenchOptions::camera`] only the label of the view in
+    /// the outputs ([`scenes::CAMERA_VIEW_NAME`]).
     pub scene: String,
+    /// A view given as such (`--camera`), benchmarked instead of a named scene.
+    pub camera: Option<CameraSpec>,
     pub frames: usize,
     pub warmup: usize,
     pub width: u32,
@@ -100,6 +122,17 @@ pub struct BenchRun {
     pub wall_s: f64,
 }
 
+/// The view a run holds still, or None for the `flight` path.
+fn fixed_view(options: &BenchOptions) -> Result<Option<CameraSpec>, UnknownScene> {
+    match (&options.camera, options.scene.as_str()) {
+        (Some(view), _) => Ok(Some(*view)),
+        (None, flight::NAME) => Ok(None),
+        (None, name) => scenes::find(name)
+            .map(|s| Some(s.view()))
+            .map_err(|e| e.also_known(&[flight::NAME, JUMP])),
+    }
+}
+
 /// Median, minimum and maximum.
 pub fn summary(values: &[f64]) -> Option<(f64, f64, f64)> {
     if values.is_empty() {
@@ -131,8 +164,9 @@ pub fn run(
     terrain: &Terrain,
     options: &BenchOptions,
     mut progress: impl FnMut(usize, usize),
-) -> Result<BenchRun, RenderError> {
+) -> Result<BenchRun, BenchError> {
     let started = Instant::now();
+    let view = fixed_view(options)?;
     let mut renderer = TerrainRenderer::with_streaming(
         &ctx.device,
         options.settings.clone(),
@@ -143,20 +177,8 @@ pub fn run(
     let timer = GpuTimer::new(ctx);
     let target = OffscreenFrame::new(&ctx.device, options.width, options.height);
     let ground = |lat: f64, lon: f64| terrain.height_at_lat_lon_m(lat, lon);
-    let is_flight = options.scene == flight::NAME;
-    let fixed = if is_flight {
-        None
-    } else {
-        let scene = Scene::by_name(&options.scene).ok_or_else(|| {
-            RenderError::Stream(format!(
-                "unknown scene '{}' (known: {}, {})",
-                options.scene,
-                crate::scenes::scene_names(),
-                flight::NAME
-            ))
-        })?;
-        Some(scene.camera(ground))
-    };
+    let is_flight = view.is_none();
+    let fixed = view.map(|v| v.camera(ground));
     let camera_of = |i: usize| match fixed {
         Some(c) => c,
         None => flight::frame_camera(i, options.frames, ground),
@@ -594,14 +616,12 @@ pub struct Jump {
 pub fn jump(
     ctx: &GpuContext,
     terrain: &Terrain,
-    options: &BenchOptions,
+    options: &JumpOptions,
     from: &str,
     to: &str,
-) -> Result<Jump, RenderError> {
+) -> Result<Jump, BenchError> {
     let scene = |name: &str| {
-        Scene::by_name(name)
-            .ok_or_else(|| RenderError::Stream(format!("unknown scene '{name}'")))
-            .map(|s| s.camera(|lat, lon| terrain.height_at_lat_lon_m(lat, lon)))
+        scenes::find(name).map(|s| s.camera(|lat, lon| terrain.height_at_lat_lon_m(lat, lon)))
     };
     let (a, b) = (scene(from)?, scene(to)?);
     let mut renderer = TerrainRenderer::with_streaming(
@@ -637,4 +657,182 @@ pub fn jump(
         tiles_cancelled: s1.tiles_cancelled - s0.tiles_cancelled,
         bytes_read: s1.bytes_read - s0.bytes_read,
     })
+}
+
+/// What `globe bench --scene jump` measures with.
+#[derive(Clone, Debug)]
+pub struct JumpOptions {
+    pub width: u32,
+    pub height: u32,
+    pub settings: ClipmapSettings,
+    pub stream: StreamSettings,
+    /// Tiles read by each side of the throughput comparison.
+    pub throughput_tiles: usize,
+}
+
+/// `globe bench --scene jump`: the jump [`JUMP_FROM`] → [`JUMP_TO`] and the pipeline's
+/// throughput around [`JUMP_TO`] against the raw read rate.
+#[derive(Clone, Debug)]
+pub struct JumpRun {
+    pub adapter: String,
+    pub options: JumpOptions,
+    /// Size of the pyramid file read.
+    pub file_bytes: u64,
+    pub jump: Jump,
+    pub throughput: Throughput,
+}
+
+/// Runs the jump benchmark on a DEM terrain: first the throughput comparison around the jump's
+/// destination, then the jump. `progress` gets a line before each part.
+pub fn run_jump(
+    ctx: &GpuContext,
+    terrain: &Terrain,
+    options: &JumpOptions,
+    mut progress: impl FnMut(&str),
+) -> Result<JumpRun, BenchError> {
+    let Terrain::Dem(dem) = terrain else {
+        return Err(BenchError::JumpNeedsDem);
+    };
+    let to = scenes::find(JUMP_TO)?;
+    progress(&format!(
+        "throughput: {} tiles raw, {} through the pipeline…",
+        options.throughput_tiles, options.throughput_tiles
+    ));
+    let throughput = throughput(
+        dem,
+        &options.stream,
+        options.throughput_tiles,
+        to.lat_deg,
+        to.lon_deg,
+    )
+    .map_err(BenchError::Streamer)?;
+    progress(&format!("jump {JUMP_FROM} → {JUMP_TO}…"));
+    let jump = jump(ctx, terrain, options, JUMP_FROM, JUMP_TO)?;
+    Ok(JumpRun {
+        adapter: ctx.adapter_description(),
+        options: options.clone(),
+        file_bytes: dem.pyramid().info().file_bytes,
+        jump,
+        throughput,
+    })
+}
+
+impl JumpRun {
+    /// One JSON object: the jump, then the throughput of each pass (`_cached`: the second,
+    /// from the page cache).
+    pub fn to_json(&self) -> String {
+        let (j, tp, o) = (&self.jump, &self.throughput, &self.options);
+        let fields = [
+            ("adapter", json_string(&self.adapter)),
+            ("scene", json_string(JUMP)),
+            ("file_bytes", self.file_bytes.to_string()),
+            ("width", o.width.to_string()),
+            ("height", o.height.to_string()),
+            ("jump_from", json_string(&j.from)),
+            ("jump_to", json_string(&j.to)),
+            (
+                "jump_to_full_detail_s",
+                format!("{:.3}", j.to_full_detail_s),
+            ),
+            ("jump_frames", j.frames.to_string()),
+            ("jump_tiles_loaded", j.tiles_loaded.to_string()),
+            ("jump_tiles_cancelled", j.tiles_cancelled.to_string()),
+            ("jump_bytes_read", j.bytes_read.to_string()),
+            ("throughput_tiles", tp.tiles.to_string()),
+            (
+                "pipeline_tiles_per_s",
+                format!("{:.1}", tp.tiles_per_s(tp.pipeline_s[0])),
+            ),
+            (
+                "pipeline_mb_per_s",
+                format!("{:.1}", tp.mb_per_s(tp.pipeline_s[0])),
+            ),
+            (
+                "raw_tiles_per_s",
+                format!("{:.1}", tp.tiles_per_s(tp.raw_s[0])),
+            ),
+            ("raw_mb_per_s", format!("{:.1}", tp.mb_per_s(tp.raw_s[0]))),
+            (
+                "pipeline_vs_raw",
+                format!("{:.3}", tp.raw_s[0] / tp.pipeline_s[0]),
+            ),
+            (
+                "pipeline_mb_per_s_cached",
+                format!("{:.1}", tp.mb_per_s(tp.pipeline_s[1])),
+            ),
+            (
+                "raw_mb_per_s_cached",
+                format!("{:.1}", tp.mb_per_s(tp.raw_s[1])),
+            ),
+            (
+                "pipeline_vs_raw_cached",
+                format!("{:.3}", tp.raw_s[1] / tp.pipeline_s[1]),
+            ),
+            ("tile_latency_ms", o.stream.faults.latency_ms.to_string()),
+            ("max_in_flight", o.stream.max_in_flight.to_string()),
+        ];
+        let body: Vec<String> = fields
+            .iter()
+            .map(|(k, v)| format!("{}: {v}", json_string(k)))
+            .collect();
+        format!("{{{}}}", body.join(", "))
+    }
+}
+
+/// How `bench` and `report` resolve what they render (CPU only: no frame is drawn).
+#[cfg(test)]
+mod view_tests {
+    use super::*;
+    use crate::report::{ReportOptions, views};
+
+    fn options(scene: &str, camera: Option<CameraSpec>) -> BenchOptions {
+        BenchOptions {
+            scene: scene.into(),
+            camera,
+            frames: 1,
+            warmup: 0,
+            width: 1,
+            height: 1,
+            settings: ClipmapSettings::default(),
+            stream: StreamSettings::default(),
+            passthrough: false,
+            measure_error: false,
+            frame_interval: None,
+        }
+    }
+
+    #[test]
+    fn bench_holds_a_scene_or_camera_view_and_flies_the_flight() {
+        let garda: CameraSpec = "45.65,10.65,500,90,-10".parse().unwrap();
+        assert_eq!(
+            fixed_view(&options("everest", None)).unwrap(),
+            Some(scenes::find("everest").unwrap().view())
+        );
+        assert_eq!(
+            fixed_view(&options(scenes::CAMERA_VIEW_NAME, Some(garda))).unwrap(),
+            Some(garda)
+        );
+        assert_eq!(fixed_view(&options(flight::NAME, None)).unwrap(), None);
+        let e = fixed_view(&options("nowhere", None)).unwrap_err();
+        assert!(e.to_string().ends_with("everest, flight, jump)"), "{e}");
+    }
+
+    #[test]
+    fn report_runs_the_scenes_then_the_camera_view() {
+        let garda: CameraSpec = "45.65,10.65,500,90,-10".parse().unwrap();
+        let mut o = ReportOptions {
+            scenes: vec!["space".into(), "ground".into()],
+            camera: Some(garda),
+            width: 1,
+            height: 1,
+            frames: 1,
+            base: ClipmapSettings::default(),
+            stream: StreamSettings::default(),
+        };
+        let names: Vec<String> = views(&o).unwrap().into_iter().map(|v| v.0).collect();
+        assert_eq!(names, ["space", "ground", scenes::CAMERA_VIEW_NAME]);
+        assert_eq!(views(&o).unwrap()[2].1, garda);
+        o.scenes.push("nope".into());
+        assert_eq!(views(&o).unwrap_err().name, "nope");
+    }
 }

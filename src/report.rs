@@ -7,13 +7,13 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
-use crate::bench::summary;
+use crate::bench::{BenchError, summary};
 use crate::clipmap::{ClipmapSettings, TransformForm};
 use crate::measure::{self, ErrorStats, PixelSet, RayCaster, ReferenceImage};
 use crate::render::offscreen::{COLOR_FORMAT, OffscreenFrame, SETTLE_TIMEOUT};
 use crate::render::timing::GpuTimer;
 use crate::render::{GpuContext, RenderError, TerrainRenderer};
-use crate::scenes::Scene;
+use crate::scenes::{self, CAMERA_VIEW_NAME, CameraSpec};
 use crate::stream::StreamSettings;
 use crate::terrain::Terrain;
 
@@ -64,7 +64,10 @@ pub fn settings_grid(base: &ClipmapSettings) -> Vec<Setting> {
 
 #[derive(Clone, Debug)]
 pub struct ReportOptions {
+    /// Named scenes, run in this order.
     pub scenes: Vec<String>,
+    /// A view given as such (`--camera`), run after the scenes as [`CAMERA_VIEW_NAME`].
+    pub camera: Option<CameraSpec>,
     pub width: u32,
     pub height: u32,
     /// Timed frames per setting (after two warm-up frames); medians are reported.
@@ -97,25 +100,36 @@ impl Row {
     }
 }
 
-/// Runs every setting over every scene. `progress` gets a line per step.
+/// The views the report runs, with their names: the scenes, then the `--camera` view.
+pub fn views(options: &ReportOptions) -> Result<Vec<(String, CameraSpec)>, scenes::UnknownScene> {
+    let mut views = Vec::new();
+    for name in &options.scenes {
+        views.push((name.clone(), scenes::find(name)?.view()));
+    }
+    if let Some(view) = options.camera {
+        views.push((CAMERA_VIEW_NAME.to_owned(), view));
+    }
+    Ok(views)
+}
+
+/// Runs every setting over every view. `progress` gets a line per step.
 pub fn run(
     ctx: &GpuContext,
     terrain: &Terrain,
     options: &ReportOptions,
     mut progress: impl FnMut(&str),
-) -> Result<Vec<Row>, RenderError> {
+) -> Result<Vec<Row>, BenchError> {
     let grid = settings_grid(&options.base);
+    let views = views(options)?;
     let timer = GpuTimer::new(ctx);
     let target = OffscreenFrame::new(&ctx.device, options.width, options.height);
     let mut rows = Vec::new();
-    for (si, name) in options.scenes.iter().enumerate() {
-        let scene = Scene::by_name(name)
-            .ok_or_else(|| RenderError::Stream(format!("unknown scene '{name}'")))?;
-        let camera = scene.camera(|lat, lon| terrain.height_at_lat_lon_m(lat, lon));
+    for (si, (name, view)) in views.iter().enumerate() {
+        let camera = view.camera(|lat, lon| terrain.height_at_lat_lon_m(lat, lon));
         progress(&format!(
             "[{}/{}] {name}: reference ray cast at {}×{}…",
             si + 1,
-            options.scenes.len(),
+            views.len(),
             options.width,
             options.height
         ));
@@ -125,7 +139,7 @@ pub fn run(
             progress(&format!(
                 "[{}/{}] {name}: setting {}/{} {}",
                 si + 1,
-                options.scenes.len(),
+                views.len(),
                 k + 1,
                 grid.len(),
                 setting.name
@@ -234,6 +248,9 @@ pub fn markdown(rows: &[Row], adapter: &str, terrain: &str, options: &ReportOpti
     let _ = writeln!(md, "# globe report\n");
     let _ = writeln!(md, "- adapter: {adapter}");
     let _ = writeln!(md, "- terrain: {terrain}");
+    if let Some(view) = &options.camera {
+        let _ = writeln!(md, "- view `{CAMERA_VIEW_NAME}`: `--camera {view}`");
+    }
     let _ = writeln!(
         md,
         "- {}×{}, {} timed frames per setting after 2 warm-up frames (medians); streaming settled first",

@@ -21,6 +21,7 @@ fn bench_json_has_the_promised_fields() {
     let terrain = Terrain::embedded_earth().unwrap();
     let options = BenchOptions {
         scene: "aircraft".into(),
+        camera: None,
         frames: 3,
         warmup: 1,
         width: 160,
@@ -90,6 +91,7 @@ fn report_covers_every_setting_and_writes_its_files() {
     let terrain = Terrain::embedded_earth().unwrap();
     let options = ReportOptions {
         scenes: vec!["ground".into()],
+        camera: None,
         width: 128,
         height: 72,
         frames: 1,

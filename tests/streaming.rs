@@ -71,6 +71,7 @@ use globe::stream::{FaultSettings, StreamSettings, TileData, TileError, TileKey,
 fn flight_options(latency_ms: u64, fail_rate: f64, cache_bytes: u64) -> BenchOptions {
     BenchOptions {
         scene: flight::NAME.into(),
+        camera: None,
         frames: 24,
         warmup: 0,
         width: 192,

@@ -10,7 +10,7 @@ use globe::clipmap::selection::LevelStatus;
 use globe::clipmap::{ClipmapSettings, TransformForm};
 use globe::render::offscreen::{COLOR_FORMAT, OffscreenFrame};
 use globe::render::{GpuContext, TerrainRenderer};
-use globe::scenes::{SCENES, Scene, scene_names};
+use globe::scenes::{CAMERA_VIEW_NAME, CameraSpec, SCENES};
 use globe::stream::{FaultSettings, StreamSettings};
 use globe::terrain::Terrain;
 
@@ -31,9 +31,9 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Render a named scene headless (no window, no GPU needed: a software adapter works) to PNG.
+    /// Render a named scene or a --camera view headless (no window, no GPU needed: a software adapter works) to PNG.
     Render(RenderArgs),
-    /// Benchmark a scene or the `flight` path headless: per-frame CPU and GPU time,
+    /// Benchmark a scene, a --camera view or the `flight` path headless: per-frame CPU and GPU time,
     /// triangles, levels, streaming counters (median/min/max; `--json` for one JSON object).
     Bench(BenchArgs),
     /// Run every method and setting over the named scenes and write report.csv, report.md
@@ -48,9 +48,13 @@ struct ReportArgs {
     /// Folder to write report.csv, report.md and error_vs_time.png into (created if missing).
     #[arg(long)]
     out: PathBuf,
-    /// Scenes to run, comma-separated.
-    #[arg(long, value_delimiter = ',', default_value = "space,aircraft,ground")]
-    scenes: Vec<String>,
+    /// Scenes to run, comma-separated [default: space,aircraft,ground; none with --camera].
+    #[arg(long, value_delimiter = ',')]
+    scenes: Option<Vec<String>>,
+    /// Also run this view (after --scenes; alone without --scenes), named "camera" in the
+    /// outputs. Same form as `globe render --camera`.
+    #[arg(long, value_name = "VIEW", allow_hyphen_values = true)]
+    camera: Option<CameraSpec>,
     #[arg(long, default_value_t = 1920)]
     width: u32,
     #[arg(long, default_value_t = 1080)]
@@ -221,8 +225,12 @@ struct BenchArgs {
     /// ground, played over --frames frames from a cold start; `jump`: the time from a jump
     /// (aircraft → everest) to full detail, and the pipeline's tiles/s and MB/s against the
     /// raw read rate of the same file (--throughput-tiles tiles each).
-    #[arg(long, default_value = "aircraft")]
+    #[arg(long, default_value = "aircraft", conflicts_with = "camera")]
     scene: String,
+    /// Benchmark this view instead of a scene (named "camera" in the outputs). Same form as
+    /// `globe render --camera`.
+    #[arg(long, value_name = "VIEW", allow_hyphen_values = true)]
+    camera: Option<CameraSpec>,
     /// Measured frames.
     #[arg(long, default_value_t = 100)]
     frames: usize,
@@ -266,8 +274,12 @@ struct BenchArgs {
 #[derive(Args)]
 struct ViewerArgs {
     /// Bookmark to open the viewer at (see `globe scenes`).
-    #[arg(long, default_value = "space")]
+    #[arg(long, default_value = "space", conflicts_with = "camera")]
     scene: String,
+    /// Open the viewer at this view instead of a bookmark. Same form as `globe render
+    /// --camera`; the panel's "go to" field takes it too.
+    #[arg(long, value_name = "VIEW", allow_hyphen_values = true)]
+    camera: Option<CameraSpec>,
     /// Debug overlay to start with.
     #[arg(long)]
     overlay: Option<Overlay>,
@@ -280,10 +292,18 @@ struct ViewerArgs {
 }
 
 #[derive(Args)]
+#[group(id = "view", required = true, multiple = false, args = ["scene", "camera"])]
 struct RenderArgs {
     /// Named scene to render (see `globe scenes`).
     #[arg(long)]
-    scene: String,
+    scene: Option<String>,
+    /// Render this view instead of a scene: LAT,LON,HEIGHT,HEADING,PITCH[,ROLL] in degrees
+    /// and metres (60° vertical field of view). HEIGHT is above the terrain under the camera;
+    /// HEIGHT@sphere is above the sphere of radius R = 6 371 000 m. Latitude and pitch in
+    /// [-90, 90], longitude in [-360, 360], heading and roll any; e.g. `--camera
+    /// 45.65,10.65,500,90,-10` or `--camera=-33.4,-70.2,3000@sphere,0,-20,5`.
+    #[arg(long, value_name = "VIEW", allow_hyphen_values = true)]
+    camera: Option<CameraSpec>,
     /// Image width in pixels.
     #[arg(long, default_value_t = 1280)]
     width: u32,
@@ -342,9 +362,12 @@ fn run() -> anyhow::Result<ExitCode> {
     }
 }
 
-fn find_scene(name: &str) -> anyhow::Result<&'static Scene> {
-    Scene::by_name(name)
-        .with_context(|| format!("unknown scene '{name}' (known scenes: {})", scene_names()))
+/// The view a command draws and its name: `--camera` (named "camera") or the scene `name`.
+fn chosen_view(name: &str, camera: Option<CameraSpec>) -> anyhow::Result<(String, CameraSpec)> {
+    Ok(match camera {
+        Some(view) => (CAMERA_VIEW_NAME.to_owned(), view),
+        None => (name.to_owned(), globe::scenes::find(name)?.view()),
+    })
 }
 
 fn print_scenes() {
@@ -372,7 +395,7 @@ fn print_scenes() {
 }
 
 fn render(args: &RenderArgs) -> anyhow::Result<ExitCode> {
-    let scene = find_scene(&args.scene)?;
+    let (name, view) = chosen_view(args.scene.as_deref().unwrap_or_default(), args.camera)?;
     if args.width == 0 || args.height == 0 || args.width > 16384 || args.height > 16384 {
         bail!(
             "--width and --height must be between 1 and 16384 (got {}×{})",
@@ -390,7 +413,7 @@ fn render(args: &RenderArgs) -> anyhow::Result<ExitCode> {
     let mut renderer =
         TerrainRenderer::with_streaming(&ctx.device, settings, terrain, COLOR_FORMAT, stream)?;
     renderer.overlays.levels = args.overlay == Some(Overlay::Levels);
-    let camera = scene.camera(|lat, lon| renderer.terrain_height_m(lat, lon));
+    let camera = view.camera(|lat, lon| renderer.terrain_height_m(lat, lon));
     let target = OffscreenFrame::new(&ctx.device, args.width, args.height);
     let mut frame = if args.no_wait {
         target.render_now(&ctx, &mut renderer, &camera)?
@@ -421,14 +444,19 @@ fn render(args: &RenderArgs) -> anyhow::Result<ExitCode> {
     let sel = &frame.info.selection;
     let count = |s: LevelStatus| sel.status.iter().filter(|x| **x == s).count();
     eprintln!(
-        "scene {}: {:.2}°, {:.2}°, {:.1} m ({:.2} m above terrain), heading {}°, pitch {}°",
-        scene.name,
+        "{} {name}: {:.2}°, {:.2}°, {:.1} m ({:.2} m above terrain), heading {}°, pitch {}°, roll {}°",
+        if args.camera.is_some() {
+            "view"
+        } else {
+            "scene"
+        },
         camera.lat_deg,
         camera.lon_deg,
         camera.altitude_m,
         frame.info.height_above_terrain_m,
         camera.heading_deg,
-        camera.pitch_deg
+        camera.pitch_deg,
+        camera.roll_deg
     );
     eprintln!(
         "levels drawn {}..={} (θ̃max {:.4}°, θ̃min {:.3e}°): {} beyond the horizon, {} sub-pixel",
@@ -458,7 +486,7 @@ fn render(args: &RenderArgs) -> anyhow::Result<ExitCode> {
 }
 
 fn viewer(args: &ViewerArgs) -> anyhow::Result<ExitCode> {
-    find_scene(&args.scene)?;
+    let (_, start) = chosen_view(&args.scene, args.camera)?;
     if args.overlay == Some(Overlay::Error) {
         bail!(
             "--overlay error is for `globe render`; in the viewer press the panel's \
@@ -466,7 +494,7 @@ fn viewer(args: &ViewerArgs) -> anyhow::Result<ExitCode> {
         );
     }
     let options = globe::ui::ViewerOptions {
-        scene: args.scene.clone(),
+        start,
         settings: args.mesh.settings()?,
         overlay_levels: args.overlay == Some(Overlay::Levels),
         terrain: args.dem.open()?,
@@ -483,12 +511,20 @@ fn viewer(args: &ViewerArgs) -> anyhow::Result<ExitCode> {
 }
 
 fn bench(args: &BenchArgs) -> anyhow::Result<ExitCode> {
-    if args.scene == "jump" {
+    let is_flight = args.camera.is_none() && args.scene == globe::scenes::flight::NAME;
+    if args.camera.is_none() && args.scene == globe::bench::JUMP {
         return bench_jump(args);
     }
-    if args.scene != globe::scenes::flight::NAME {
-        find_scene(&args.scene)?;
-    }
+    // Names are checked before the adapter starts; the library looks them up the same way.
+    let name = match args.camera {
+        Some(_) => CAMERA_VIEW_NAME,
+        None if is_flight => globe::scenes::flight::NAME,
+        None => {
+            globe::scenes::find(&args.scene)
+                .map_err(|e| e.also_known(&[globe::scenes::flight::NAME, globe::bench::JUMP]))?
+                .name
+        }
+    };
     if args.frames == 0 {
         bail!("--frames must be at least 1");
     }
@@ -501,7 +537,8 @@ fn bench(args: &BenchArgs) -> anyhow::Result<ExitCode> {
     let mut runs = Vec::new();
     for &latency in &args.stream.tile_latency_ms {
         let options = globe::bench::BenchOptions {
-            scene: args.scene.clone(),
+            scene: name.to_owned(),
+            camera: args.camera,
             frames: args.frames,
             warmup: args.warmup,
             width: args.width,
@@ -511,11 +548,7 @@ fn bench(args: &BenchArgs) -> anyhow::Result<ExitCode> {
             measure_error: !args.no_error,
             passthrough: args.passthrough,
             frame_interval: {
-                let default = if args.scene == globe::scenes::flight::NAME {
-                    60.0
-                } else {
-                    0.0
-                };
+                let default = if is_flight { 60.0 } else { 0.0 };
                 let fps = args.fps.unwrap_or(default);
                 if !(fps >= 0.0 && fps.is_finite()) {
                     bail!("--fps must be 0 or more (got {fps})");
@@ -525,10 +558,7 @@ fn bench(args: &BenchArgs) -> anyhow::Result<ExitCode> {
         };
         let run = globe::bench::run(&ctx, &terrain, &options, |done, total| {
             if done % 10 == 0 || done == total {
-                eprint!(
-                    "\r{} (latency {latency} ms): frame {done}/{total}",
-                    args.scene
-                );
+                eprint!("\r{name} (latency {latency} ms): frame {done}/{total}");
             }
         })?;
         eprintln!();
@@ -635,122 +665,57 @@ fn print_bench(run: &globe::bench::BenchRun) {
 
 fn bench_jump(args: &BenchArgs) -> anyhow::Result<ExitCode> {
     let ctx = GpuContext::headless().context("cannot benchmark without a graphics adapter")?;
-    let adapter = ctx.adapter_description();
-    eprintln!("adapter: {adapter}");
+    eprintln!("adapter: {}", ctx.adapter_description());
     let terrain = args.dem.open()?;
     eprintln!("terrain: {}", terrain.describe());
-    let Terrain::Dem(dem) = &terrain else {
-        bail!("`--scene jump` measures streaming: it needs a DEM (--dem), not the analytic planet");
-    };
-    let stream = args.stream.settings()?;
-    let options = globe::bench::BenchOptions {
-        scene: "jump".into(),
-        frames: 0,
-        warmup: 0,
+    let options = globe::bench::JumpOptions {
         width: args.width,
         height: args.height,
         settings: args.mesh.settings()?,
-        stream,
-        measure_error: false,
-        passthrough: false,
-        frame_interval: None,
+        stream: args.stream.settings()?,
+        throughput_tiles: args.throughput_tiles,
     };
-    eprintln!(
-        "throughput: {} tiles raw, {} through the pipeline…",
-        args.throughput_tiles, args.throughput_tiles
-    );
-    let (lat, lon) = (27.95, 86.90);
-    let tp = globe::bench::throughput(dem, &stream, args.throughput_tiles, lat, lon)
-        .context("cannot start the tile streamer")?;
-    eprintln!("jump aircraft → everest…");
-    let jump = globe::bench::jump(&ctx, &terrain, &options, "aircraft", "everest")?;
-    let fields = [
-        ("adapter", globe::bench::json_string(&adapter)),
-        ("scene", "\"jump\"".to_string()),
-        ("file_bytes", dem.pyramid().info().file_bytes.to_string()),
-        ("width", args.width.to_string()),
-        ("height", args.height.to_string()),
-        ("jump_from", globe::bench::json_string(&jump.from)),
-        ("jump_to", globe::bench::json_string(&jump.to)),
-        (
-            "jump_to_full_detail_s",
-            format!("{:.3}", jump.to_full_detail_s),
-        ),
-        ("jump_frames", jump.frames.to_string()),
-        ("jump_tiles_loaded", jump.tiles_loaded.to_string()),
-        ("jump_tiles_cancelled", jump.tiles_cancelled.to_string()),
-        ("jump_bytes_read", jump.bytes_read.to_string()),
-        ("throughput_tiles", tp.tiles.to_string()),
-        (
-            "pipeline_tiles_per_s",
-            format!("{:.1}", tp.tiles_per_s(tp.pipeline_s[0])),
-        ),
-        (
-            "pipeline_mb_per_s",
-            format!("{:.1}", tp.mb_per_s(tp.pipeline_s[0])),
-        ),
-        (
-            "raw_tiles_per_s",
-            format!("{:.1}", tp.tiles_per_s(tp.raw_s[0])),
-        ),
-        ("raw_mb_per_s", format!("{:.1}", tp.mb_per_s(tp.raw_s[0]))),
-        (
-            "pipeline_vs_raw",
-            format!("{:.3}", tp.raw_s[0] / tp.pipeline_s[0]),
-        ),
-        (
-            "pipeline_mb_per_s_cached",
-            format!("{:.1}", tp.mb_per_s(tp.pipeline_s[1])),
-        ),
-        (
-            "raw_mb_per_s_cached",
-            format!("{:.1}", tp.mb_per_s(tp.raw_s[1])),
-        ),
-        (
-            "pipeline_vs_raw_cached",
-            format!("{:.3}", tp.raw_s[1] / tp.pipeline_s[1]),
-        ),
-        ("tile_latency_ms", stream.faults.latency_ms.to_string()),
-        ("max_in_flight", stream.max_in_flight.to_string()),
-    ];
+    let run = globe::bench::run_jump(&ctx, &terrain, &options, |line| eprintln!("{line}"))?;
     if args.json {
-        let body: Vec<String> = fields
-            .iter()
-            .map(|(k, v)| format!("{}: {v}", globe::bench::json_string(k)))
-            .collect();
-        println!("{{{}}}", body.join(", "));
-    } else {
+        println!("{}", run.to_json());
+        return Ok(ExitCode::SUCCESS);
+    }
+    let (jump, tp) = (&run.jump, &run.throughput);
+    println!(
+        "jump {} → {}: full detail after {:.3} s ({} frames, {} tiles loaded, {} cancelled, {:.1} MiB)",
+        jump.from,
+        jump.to,
+        jump.to_full_detail_s,
+        jump.frames,
+        jump.tiles_loaded,
+        jump.tiles_cancelled,
+        jump.bytes_read as f64 / 1048576.0
+    );
+    for (pass, what) in ["first pass", "second pass (page cache)"]
+        .iter()
+        .enumerate()
+    {
         println!(
-            "jump {} → {}: full detail after {:.3} s ({} frames, {} tiles loaded, {} cancelled, {:.1} MiB)",
-            jump.from,
-            jump.to,
-            jump.to_full_detail_s,
-            jump.frames,
-            jump.tiles_loaded,
-            jump.tiles_cancelled,
-            jump.bytes_read as f64 / 1048576.0
+            "throughput, {what}, {} tiles each: pipeline {:.1} tiles/s ({:.1} MB/s), raw {:.1} tiles/s ({:.1} MB/s): pipeline/raw {:.3}",
+            tp.tiles,
+            tp.tiles_per_s(tp.pipeline_s[pass]),
+            tp.mb_per_s(tp.pipeline_s[pass]),
+            tp.tiles_per_s(tp.raw_s[pass]),
+            tp.mb_per_s(tp.raw_s[pass]),
+            tp.raw_s[pass] / tp.pipeline_s[pass]
         );
-        for (pass, what) in ["first pass", "second pass (page cache)"]
-            .iter()
-            .enumerate()
-        {
-            println!(
-                "throughput, {what}, {} tiles each: pipeline {:.1} tiles/s ({:.1} MB/s), raw {:.1} tiles/s ({:.1} MB/s): pipeline/raw {:.3}",
-                tp.tiles,
-                tp.tiles_per_s(tp.pipeline_s[pass]),
-                tp.mb_per_s(tp.pipeline_s[pass]),
-                tp.tiles_per_s(tp.raw_s[pass]),
-                tp.mb_per_s(tp.raw_s[pass]),
-                tp.raw_s[pass] / tp.pipeline_s[pass]
-            );
-        }
     }
     Ok(ExitCode::SUCCESS)
 }
 
 fn report(args: &ReportArgs) -> anyhow::Result<ExitCode> {
-    for name in &args.scenes {
-        find_scene(name)?;
+    let scenes = match (&args.scenes, args.camera) {
+        (Some(scenes), _) => scenes.clone(),
+        (None, Some(_)) => Vec::new(),
+        (None, None) => ["space", "aircraft", "ground"].map(String::from).to_vec(),
+    };
+    for name in &scenes {
+        globe::scenes::find(name)?;
     }
     if args.frames == 0 || args.width == 0 || args.height == 0 {
         bail!("--frames, --width and --height must be at least 1");
@@ -761,7 +726,8 @@ fn report(args: &ReportArgs) -> anyhow::Result<ExitCode> {
     let terrain = args.dem.open()?;
     eprintln!("terrain: {}", terrain.describe());
     let options = globe::report::ReportOptions {
-        scenes: args.scenes.clone(),
+        scenes,
+        camera: args.camera,
         width: args.width,
         height: args.height,
         frames: args.frames,

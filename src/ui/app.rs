@@ -1,28 +1,28 @@
-//! The window: winit's `ApplicationHandler`, the wgpu surface, one frame of terrain + egui, and
-//! the routing of input to the panel or the camera.
+//! The window: winit's `ApplicationHandler`, the frame loop (clock, camera, terrain, panel,
+//! present: each its own step of [`App::redraw`]), the panel's actions and the routing of input
+//! to the panel or the camera. The surface and the encoding live in `gpu.rs`.
 
-use std::collections::HashSet;
 use std::path::PathBuf;
-use std::sync::Arc;
 use std::time::{Instant, SystemTime, UNIX_EPOCH};
 
 use winit::application::ApplicationHandler;
-use winit::dpi::{LogicalSize, PhysicalPosition, PhysicalSize};
+use winit::dpi::PhysicalPosition;
 use winit::error::EventLoopError;
 use winit::event::{ElementState, KeyEvent, MouseButton, MouseScrollDelta, WindowEvent};
 use winit::event_loop::{ActiveEventLoop, EventLoop, OwnedDisplayHandle};
-use winit::keyboard::{KeyCode, ModifiersState, PhysicalKey};
-use winit::window::{Window, WindowId};
+use winit::keyboard::{KeyCode, PhysicalKey};
+use winit::window::WindowId;
 
 use crate::geo::camera::Camera;
 use crate::geo::sphere;
 use crate::render::offscreen::{self, OffscreenFrame};
-use crate::render::terrain::DEPTH_FORMAT;
-use crate::render::{FrameInfo, GpuContext, RenderError, TerrainRenderer};
-use crate::scenes::Scene;
+use crate::render::{FrameInfo, RenderError};
+use crate::scenes::CameraSpec;
 use crate::terrain::Terrain;
 
-use super::controls::{self, FlyInput};
+use super::controls;
+use super::gpu::{Acquired, Gpu};
+use super::input::{Drag, Input};
 use super::panel::{FrameStats, LiveSettings, MeshDraft, Panel, PanelAction, Readout};
 use super::{UiError, ViewerOptions};
 
@@ -31,23 +31,14 @@ pub const SMOKE_FRAMES_ENV: &str = "GLOBE_VIEWER_SMOKE_FRAMES";
 
 /// Runs the viewer; `smoke_frames` (from [`SMOKE_FRAMES_ENV`] when None) ends it after a
 /// screenshot.
-pub(super) fn run(
-    scene: &'static Scene,
-    options: ViewerOptions,
-    smoke_frames: Option<u64>,
-) -> Result<(), UiError> {
+pub(super) fn run(options: ViewerOptions, smoke_frames: Option<u64>) -> Result<(), UiError> {
     let smoke_frames = smoke_frames.or_else(|| {
         std::env::var(SMOKE_FRAMES_ENV)
             .ok()
             .and_then(|v| v.trim().parse().ok())
     });
     let event_loop = create_event_loop()?;
-    let mut app = App::new(
-        scene,
-        options,
-        event_loop.owned_display_handle(),
-        smoke_frames,
-    );
+    let mut app = App::new(options, event_loop.owned_display_handle(), smoke_frames);
     let result = event_loop.run_app(&mut app);
     // Release the GPU objects before the event loop (and its X connection) goes away.
     app.gpu = None;
@@ -102,229 +93,6 @@ fn ground<'a>(gpu: Option<&'a Gpu>, planet: &'a Terrain) -> impl Fn(f64, f64) ->
     }
 }
 
-/// Everything that needs the window: created in `resumed`.
-struct Gpu {
-    // Declared (and so dropped) before `window`.
-    egui_renderer: egui_wgpu::Renderer,
-    egui_state: egui_winit::State,
-    terrain: TerrainRenderer,
-    depth: wgpu::TextureView,
-    surface: wgpu::Surface<'static>,
-    config: wgpu::SurfaceConfiguration,
-    ctx: GpuContext,
-    adapter_text: String,
-    surface_text: String,
-    window: Arc<Window>,
-}
-
-impl Gpu {
-    fn new(
-        event_loop: &ActiveEventLoop,
-        display: &OwnedDisplayHandle,
-        settings: crate::clipmap::ClipmapSettings,
-        planet: Terrain,
-        overlay_levels: bool,
-        stream: crate::stream::StreamSettings,
-    ) -> Result<Self, UiError> {
-        let attributes = Window::default_attributes()
-            .with_title("globe")
-            .with_inner_size(LogicalSize::new(1280.0, 800.0));
-        let window = Arc::new(
-            event_loop
-                .create_window(attributes)
-                .map_err(|e| UiError::no_display(format!("could not open a window: {e}")))?,
-        );
-        let instance = wgpu::Instance::new(
-            wgpu::InstanceDescriptor::new_with_display_handle_from_env(Box::new(display.clone())),
-        );
-        let surface = instance
-            .create_surface(wgpu::SurfaceTarget::from_window_without_display(
-                window.clone(),
-            ))
-            .map_err(|e| UiError::Surface(e.to_string()))?;
-        let adapter = pollster::block_on(GpuContext::pick_adapter(&instance, Some(&surface)))?;
-        let ctx = GpuContext::with_adapter(instance, adapter)?;
-        let size = window.inner_size();
-        let config = surface_config(&surface, &ctx.adapter, size)?;
-        surface.configure(&ctx.device, &config);
-        let depth = depth_view(&ctx.device, config.width, config.height);
-
-        let mut terrain =
-            TerrainRenderer::with_streaming(&ctx.device, settings, planet, config.format, stream)?;
-        terrain.overlays.levels = overlay_levels;
-
-        let max_texture_side = ctx.device.limits().max_texture_dimension_2d as usize;
-        let egui_ctx = egui::Context::default();
-        let egui_state = egui_winit::State::new(
-            egui_ctx,
-            egui::ViewportId::ROOT,
-            &window,
-            Some(window.scale_factor() as f32),
-            window.theme(),
-            Some(max_texture_side),
-        );
-        let egui_renderer = egui_wgpu::Renderer::new(
-            &ctx.device,
-            config.format,
-            egui_wgpu::RendererOptions::default(),
-        );
-        let adapter_text = ctx.adapter_description();
-        let surface_text = format!("surface {:?}, {:?}", config.format, config.present_mode);
-        Ok(Self {
-            egui_renderer,
-            egui_state,
-            terrain,
-            depth,
-            surface,
-            config,
-            ctx,
-            adapter_text,
-            surface_text,
-            window,
-        })
-    }
-
-    /// Reconfigures the surface (and the depth buffer) at the window's current size.
-    fn resize(&mut self, size: PhysicalSize<u32>) {
-        if size.width == 0 || size.height == 0 {
-            return; // minimised: keep the old configuration until the window is back
-        }
-        self.config.width = size.width;
-        self.config.height = size.height;
-        self.surface.configure(&self.ctx.device, &self.config);
-        self.depth = depth_view(&self.ctx.device, size.width, size.height);
-    }
-
-    /// Replaces a lost surface.
-    fn recreate_surface(&mut self) -> Result<(), UiError> {
-        self.surface = self
-            .ctx
-            .instance
-            .create_surface(wgpu::SurfaceTarget::from_window_without_display(
-                self.window.clone(),
-            ))
-            .map_err(|e| UiError::Surface(e.to_string()))?;
-        self.surface.configure(&self.ctx.device, &self.config);
-        Ok(())
-    }
-
-    /// A renderer with `settings`, or the GPU's complaint (out of memory, limits) as text.
-    fn build_renderer(
-        &self,
-        settings: crate::clipmap::ClipmapSettings,
-        format: wgpu::TextureFormat,
-    ) -> Result<TerrainRenderer, String> {
-        let device = &self.ctx.device;
-        let oom = device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
-        let validation = device.push_error_scope(wgpu::ErrorFilter::Validation);
-        let built = TerrainRenderer::with_streaming(
-            device,
-            settings,
-            self.terrain.terrain.clone(),
-            format,
-            self.terrain
-                .feed()
-                .map(|f| *f.settings())
-                .unwrap_or_default(),
-        );
-        let validation = pollster::block_on(validation.pop());
-        let oom = pollster::block_on(oom.pop());
-        let mut renderer = built.map_err(|e| e.to_string())?;
-        if let Some(e) = validation.or(oom) {
-            return Err(e.to_string());
-        }
-        renderer.overlays = self.terrain.overlays;
-        Ok(renderer)
-    }
-}
-
-/// sRGB if the surface has it (Rgba8UnormSrgb first: screenshots then reuse the renderer),
-/// vsync presentation.
-fn surface_config(
-    surface: &wgpu::Surface<'_>,
-    adapter: &wgpu::Adapter,
-    size: PhysicalSize<u32>,
-) -> Result<wgpu::SurfaceConfiguration, UiError> {
-    let caps = surface.get_capabilities(adapter);
-    let mut config = surface
-        .get_default_config(adapter, size.width.max(1), size.height.max(1))
-        .ok_or_else(|| {
-            UiError::Surface(format!(
-                "the window surface is not supported by {}",
-                adapter.get_info().name
-            ))
-        })?;
-    let preferred = [offscreen::COLOR_FORMAT, wgpu::TextureFormat::Bgra8UnormSrgb];
-    config.format = preferred
-        .into_iter()
-        .find(|f| caps.formats.contains(f))
-        .or_else(|| caps.formats.iter().copied().find(|f| f.is_srgb()))
-        .unwrap_or(config.format);
-    config.present_mode = if caps.present_modes.contains(&wgpu::PresentMode::Fifo) {
-        wgpu::PresentMode::Fifo
-    } else {
-        wgpu::PresentMode::AutoVsync
-    };
-    Ok(config)
-}
-
-fn depth_view(device: &wgpu::Device, width: u32, height: u32) -> wgpu::TextureView {
-    device
-        .create_texture(&wgpu::TextureDescriptor {
-            label: Some("window depth"),
-            size: wgpu::Extent3d {
-                width: width.max(1),
-                height: height.max(1),
-                depth_or_array_layers: 1,
-            },
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format: DEPTH_FORMAT,
-            usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
-            view_formats: &[],
-        })
-        .create_view(&Default::default())
-}
-
-/// What a mouse drag does.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Drag {
-    Look,
-    Pan,
-}
-
-/// Mouse and keyboard state between events.
-#[derive(Default)]
-struct Input {
-    keys: HashSet<KeyCode>,
-    modifiers: ModifiersState,
-    cursor: Option<PhysicalPosition<f64>>,
-    drag: Option<(MouseButton, Drag)>,
-}
-
-impl Input {
-    fn release_all(&mut self) {
-        self.keys.clear();
-        self.drag = None;
-    }
-
-    fn fly_input(&self) -> FlyInput {
-        let axis = |plus: KeyCode, minus: KeyCode| {
-            f64::from(u8::from(self.keys.contains(&plus)))
-                - f64::from(u8::from(self.keys.contains(&minus)))
-        };
-        FlyInput {
-            forward: axis(KeyCode::KeyW, KeyCode::KeyS),
-            right: axis(KeyCode::KeyD, KeyCode::KeyA),
-            up: axis(KeyCode::KeyE, KeyCode::KeyQ),
-            turn: axis(KeyCode::ArrowRight, KeyCode::ArrowLeft),
-            pitch: axis(KeyCode::ArrowUp, KeyCode::ArrowDown),
-            boost: self.modifiers.shift_key(),
-        }
-    }
-}
-
 struct App {
     display: OwnedDisplayHandle,
     options: ViewerOptions,
@@ -349,14 +117,11 @@ struct App {
 const FLIGHT_SECONDS: f64 = 30.0;
 
 impl App {
-    fn new(
-        scene: &'static Scene,
-        options: ViewerOptions,
-        display: OwnedDisplayHandle,
-        smoke_frames: Option<u64>,
-    ) -> Self {
+    fn new(options: ViewerOptions, display: OwnedDisplayHandle, smoke_frames: Option<u64>) -> Self {
         let planet = options.terrain.clone();
-        let mut camera = scene.camera(|lat, lon| terrain_height_m(&planet, lat, lon));
+        let mut camera = options
+            .start
+            .camera(|lat, lon| terrain_height_m(&planet, lat, lon));
         controls::normalize(&mut camera, |lat, lon| terrain_height_m(&planet, lat, lon));
         let panel = Panel::new(&options.settings);
         Self {
@@ -388,15 +153,63 @@ impl App {
         self.planet.radius_m()
     }
 
-    /// One frame: fly, terrain, panel, present; then carry out the panel's actions.
+    /// One frame: clock, camera, terrain, panel, present; then the panel's actions.
     fn redraw(&mut self, event_loop: &ActiveEventLoop) {
+        let dt_s = self.tick();
+        let terrain_here_m = self.move_camera(dt_s);
+        let Some(gpu) = self.gpu.as_mut() else {
+            return;
+        };
+        let (texture, suboptimal) = match gpu.acquire() {
+            Acquired::Frame {
+                texture,
+                suboptimal,
+            } => (texture, suboptimal),
+            Acquired::Skip => return,
+            Acquired::Validation => {
+                self.panel.message = Some("the surface reported a validation error".into());
+                return;
+            }
+            Acquired::Failed(e) => {
+                self.fail(event_loop, e);
+                return;
+            }
+        };
+        let mut encoder = gpu
+            .ctx
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("window frame"),
+            });
+        let (width, height) = (gpu.config.width, gpu.config.height);
+        let info = gpu
+            .terrain
+            .prepare(&gpu.ctx.queue, &mut encoder, &self.camera, width, height);
+        let Some((output, actions)) = self.run_panel(&info, terrain_here_m) else {
+            return;
+        };
+        if let Some(gpu) = self.gpu.as_mut() {
+            gpu.present(texture, suboptimal, encoder, &info, output);
+        }
+        self.last_info = Some(info);
+        self.frames += 1;
+        self.after_frame(event_loop, actions);
+    }
+
+    /// Advances the frame clock; returns the seconds since the last frame (0 for the first).
+    fn tick(&mut self) -> f64 {
         let now = Instant::now();
         let dt_s = self
             .last_frame
             .map_or(0.0, |t| now.duration_since(t).as_secs_f64());
         self.last_frame = Some(now);
         self.stats.record(dt_s);
+        dt_s
+    }
 
+    /// Moves the camera by `dt_s` of the playing flight and of the held keys; returns the
+    /// terrain height under it.
+    fn move_camera(&mut self, dt_s: f64) -> f64 {
         let terrain = ground(self.gpu.as_ref(), &self.planet);
         let radius_m = self.planet.radius_m();
         if let Some(started) = self.flight_started {
@@ -414,44 +227,18 @@ impl App {
             radius_m,
             terrain,
         );
-        let terrain_here = terrain(self.camera.lat_deg, self.camera.lon_deg);
+        terrain(self.camera.lat_deg, self.camera.lon_deg)
+    }
 
-        let Some(gpu) = self.gpu.as_mut() else {
-            return;
-        };
-        let (surface_texture, suboptimal) = match gpu.surface.get_current_texture() {
-            wgpu::CurrentSurfaceTexture::Success(t) => (t, false),
-            wgpu::CurrentSurfaceTexture::Suboptimal(t) => (t, true),
-            wgpu::CurrentSurfaceTexture::Timeout | wgpu::CurrentSurfaceTexture::Occluded => {
-                return;
-            }
-            wgpu::CurrentSurfaceTexture::Outdated => {
-                let size = gpu.window.inner_size();
-                gpu.resize(size);
-                return;
-            }
-            wgpu::CurrentSurfaceTexture::Lost => {
-                if let Err(e) = gpu.recreate_surface() {
-                    self.fail(event_loop, e);
-                }
-                return;
-            }
-            wgpu::CurrentSurfaceTexture::Validation => {
-                self.panel.message = Some("the surface reported a validation error".into());
-                return;
-            }
-        };
-        let (width, height) = (gpu.config.width, gpu.config.height);
-        let device = &gpu.ctx.device;
-        let queue = &gpu.ctx.queue;
-        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
-            label: Some("window frame"),
-        });
-        let info = gpu
-            .terrain
-            .prepare(queue, &mut encoder, &self.camera, width, height);
-
-        // The panel, with this frame's figures.
+    /// Runs egui for this frame: the error overlay (while the camera has not moved) under the
+    /// panel, which shows `info`; applies the live settings the panel changed. Returns egui's
+    /// output to paint and the actions to carry out after the frame.
+    fn run_panel(
+        &mut self,
+        info: &FrameInfo,
+        terrain_here_m: f64,
+    ) -> Option<(egui::FullOutput, Vec<PanelAction>)> {
+        let gpu = self.gpu.as_mut()?;
         let raw_input = gpu.egui_state.take_egui_input(&gpu.window);
         let mut live = LiveSettings {
             transform: gpu.terrain.settings.transform,
@@ -460,13 +247,14 @@ impl App {
         };
         let readout = Readout {
             stats: &self.stats,
-            info: Some(&info),
+            info: Some(info),
             camera: &self.camera,
-            terrain_height_m: terrain_here,
+            terrain_height_m: terrain_here_m,
+            radius_m: self.planet.radius_m(),
             active: &gpu.terrain.settings,
             adapter: &gpu.adapter_text,
             surface: &gpu.surface_text,
-            max_texture_size: device.limits().max_texture_dimension_2d,
+            max_texture_size: gpu.ctx.device.limits().max_texture_dimension_2d,
         };
         let panel = &mut self.panel;
         let mut actions = Vec::new();
@@ -479,7 +267,7 @@ impl App {
             self.error_overlay = None;
         }
         let overlay = self.error_overlay.as_ref().map(|(_, t)| t.id());
-        let mut output = egui_ctx.run_ui(raw_input, |ui| {
+        let output = egui_ctx.run_ui(raw_input, |ui| {
             if let Some(id) = overlay {
                 // Under the panel, over the terrain (the egui pass loads the terrain's image).
                 let screen = ui.ctx().content_rect();
@@ -496,66 +284,11 @@ impl App {
         gpu.terrain.settings.transform = live.transform;
         gpu.terrain.settings.approx_start_level = live.approx_start_level;
         gpu.terrain.overlays.levels = live.overlay_levels;
-        gpu.egui_state
-            .handle_platform_output(&gpu.window, output.platform_output);
-        let paint_jobs = egui_ctx.tessellate(output.shapes, output.pixels_per_point);
-        let screen = egui_wgpu::ScreenDescriptor {
-            size_in_pixels: [width, height],
-            pixels_per_point: output.pixels_per_point,
-        };
-        // Every delta must be applied (egui asserts that none is dropped).
-        let mut textures = std::mem::take(&mut output.textures_delta);
-        for (id, deltas) in textures.set.drain() {
-            for delta in &deltas {
-                gpu.egui_renderer.update_texture(device, queue, id, delta);
-            }
-        }
-        let egui_commands =
-            gpu.egui_renderer
-                .update_buffers(device, queue, &mut encoder, &paint_jobs, &screen);
+        Some((output, actions))
+    }
 
-        let view = surface_texture.texture.create_view(&Default::default());
-        gpu.terrain.encode_pass(
-            &mut encoder,
-            &info,
-            &view,
-            &gpu.depth,
-            wgpu::StoreOp::Discard,
-            None,
-        );
-        {
-            let pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("egui"),
-                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                    view: &view,
-                    depth_slice: None,
-                    resolve_target: None,
-                    ops: wgpu::Operations {
-                        load: wgpu::LoadOp::Load,
-                        store: wgpu::StoreOp::Store,
-                    },
-                })],
-                depth_stencil_attachment: None,
-                timestamp_writes: None,
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
-            gpu.egui_renderer
-                .render(&mut pass.forget_lifetime(), &paint_jobs, &screen);
-        }
-        queue.submit(egui_commands.into_iter().chain([encoder.finish()]));
-        gpu.window.pre_present_notify();
-        queue.present(surface_texture);
-        for id in textures.free.drain() {
-            gpu.egui_renderer.free_texture(&id);
-        }
-        if suboptimal {
-            let size = gpu.window.inner_size();
-            gpu.resize(size);
-        }
-        self.last_info = Some(info);
-        self.frames += 1;
-
+    /// After a presented frame: the panel's actions, then the smoke check's exit.
+    fn after_frame(&mut self, event_loop: &ActiveEventLoop, actions: Vec<PanelAction>) {
         for action in actions {
             self.apply(action);
         }
@@ -580,17 +313,26 @@ impl App {
                 Err(e) => self.panel.message = Some(format!("error measurement failed: {e}")),
             },
             PanelAction::GoToScene(scene) => {
-                self.flight_started = None;
-                let planet = &self.planet;
-                let terrain = |lat: f64, lon: f64| terrain_height_m(planet, lat, lon);
-                self.camera = scene.camera(terrain);
-                controls::normalize(&mut self.camera, terrain);
+                self.go_to(&scene.view());
                 self.panel.message = Some(format!("scene '{}'", scene.name));
+            }
+            PanelAction::GoToView(view) => {
+                self.go_to(&view);
+                self.panel.message = Some(format!("view {view}"));
             }
             PanelAction::Screenshot => {
                 let _ = self.screenshot();
             }
         }
+    }
+
+    /// Puts the camera at `view` (stopping a flight), placed on the terrain function itself.
+    fn go_to(&mut self, view: &CameraSpec) {
+        self.flight_started = None;
+        let planet = &self.planet;
+        let terrain = |lat: f64, lon: f64| terrain_height_m(planet, lat, lon);
+        self.camera = view.camera(terrain);
+        controls::normalize(&mut self.camera, terrain);
     }
 
     fn rebuild_renderer(&mut self, settings: crate::clipmap::ClipmapSettings) {

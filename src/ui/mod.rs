@@ -3,9 +3,11 @@
 //! | file | concern |
 //! | --- | --- |
 //! | `mod.rs` | [`run`], [`ViewerOptions`], [`UiError`]: the entry point and what can go wrong |
-//! | `app.rs` | the winit `ApplicationHandler`, the wgpu surface, frame encoding, input routing |
+//! | `app.rs` | the winit `ApplicationHandler`, the frame loop's steps, panel actions, input routing |
+//! | `gpu.rs` | the wgpu surface, depth buffer and egui renderer; one frame's encoding and present |
+//! | `input.rs` | mouse and keyboard state between events |
 //! | `controls.rs` | pure f64 camera controls (look, pan, zoom, fly), unit-tested |
-//! | `panel.rs` | the egui side panel: statistics, level table, settings; no wgpu code |
+//! | `panel.rs` | the egui side panel: statistics, level table, settings, "go to"; no wgpu code |
 //!
 //! Controls (also listed in the panel):
 //!
@@ -24,17 +26,19 @@
 
 mod app;
 pub mod controls;
+mod gpu;
+mod input;
 pub mod panel;
 
 use crate::clipmap::ClipmapSettings;
 use crate::render::RenderError;
-use crate::scenes::{Scene, scene_names};
+use crate::scenes::{CameraSpec, ViewError};
 
 /// What the viewer starts with.
 #[derive(Clone, Debug)]
 pub struct ViewerOptions {
-    /// Name of the scene bookmark ([`crate::scenes::SCENES`]) to start at.
-    pub scene: String,
+    /// The view to start at: a scene bookmark's ([`crate::scenes::Scene::view`]) or any other.
+    pub start: CameraSpec,
     /// Clipmap settings of the terrain renderer (editable later in the panel).
     pub settings: ClipmapSettings,
     /// Start with the per-level colour overlay on.
@@ -48,7 +52,7 @@ pub struct ViewerOptions {
 impl Default for ViewerOptions {
     fn default() -> Self {
         Self {
-            scene: "aircraft".to_owned(),
+            start: crate::scenes::SCENES[1].view(),
             settings: ClipmapSettings::default(),
             overlay_levels: false,
             terrain: crate::terrain::Terrain::analytic_earth(),
@@ -64,8 +68,8 @@ pub enum UiError {
     /// what is missing, why (winit's error or the unset variable), and the headless alternative.
     #[error("{0}")]
     NoDisplay(String),
-    #[error("unknown scene '{0}' (expected one of: {names})", names = scene_names())]
-    UnknownScene(String),
+    #[error("start view: {0}")]
+    View(#[from] ViewError),
     #[error(transparent)]
     Render(#[from] RenderError),
     /// The window surface could not be created, configured or recreated.
@@ -93,11 +97,10 @@ impl UiError {
 /// Returns [`UiError::NoDisplay`] (never panics) when there is no X server: `DISPLAY` unset or
 /// empty, or the server unreachable. This build talks X11 only; under Wayland it needs XWayland.
 pub fn run(options: ViewerOptions) -> Result<(), UiError> {
-    let scene = Scene::by_name(&options.scene)
-        .ok_or_else(|| UiError::UnknownScene(options.scene.clone()))?;
+    options.start.validate(options.terrain.radius_m())?;
     options.settings.validate().map_err(RenderError::from)?;
     check_display(|name| std::env::var(name).ok())?;
-    app::run(scene, options, None)
+    app::run(options, None)
 }
 
 /// Fails early, before winit is touched, when no X display is configured. `var` reads an
@@ -197,13 +200,13 @@ mod tests {
             .and_then(|v| v.parse().ok())
             .unwrap_or(30);
         let overlay_levels = std::env::var("GLOBE_VIEWER_SMOKE_OVERLAY").is_ok();
-        let scene = Scene::by_name(&scene).expect("a scene name");
+        let start = crate::scenes::find(&scene).expect("a scene name").view();
         let options = ViewerOptions {
-            scene: scene.name.into(),
+            start,
             overlay_levels,
             ..Default::default()
         };
-        app::run(scene, options, Some(frames)).expect("the viewer runs");
+        app::run(options, Some(frames)).expect("the viewer runs");
         let new: Vec<_> = screenshots().difference(&before).cloned().collect();
         assert!(!new.is_empty(), "the smoke run saved no screenshot");
         if std::env::var("GLOBE_VIEWER_SMOKE_KEEP").is_err() {
@@ -214,12 +217,18 @@ mod tests {
     }
 
     #[test]
-    fn run_rejects_unknown_scene_and_bad_settings() {
+    fn run_rejects_bad_start_view_and_bad_settings() {
         let options = ViewerOptions {
-            scene: "nowhere".into(),
+            start: CameraSpec {
+                lat_deg: 91.0,
+                ..ViewerOptions::default().start
+            },
             ..Default::default()
         };
-        assert!(matches!(run(options), Err(UiError::UnknownScene(_))));
+        assert!(matches!(
+            run(options),
+            Err(UiError::View(ViewError::Latitude(91.0)))
+        ));
         let settings = ClipmapSettings {
             phi_steps: 100,
             ..Default::default()

@@ -10,7 +10,7 @@ use crate::clipmap::settings::level_outer_theta_rad;
 use crate::clipmap::{ClipmapSettings, TransformForm};
 use crate::geo::camera::Camera;
 use crate::render::FrameInfo;
-use crate::scenes::{SCENES, Scene};
+use crate::scenes::{CameraSpec, SCENES, Scene, VIEW_SYNTAX};
 
 /// Sector counts offered in the panel.
 pub const SECTOR_CHOICES: [u32; 5] = [4, 8, 16, 32, 64];
@@ -133,6 +133,8 @@ pub struct Readout<'a> {
     pub camera: &'a Camera,
     /// Terrain height under the camera.
     pub terrain_height_m: f64,
+    /// The planet's radius R (a "go to" height must stay above −R).
+    pub radius_m: f64,
     /// The settings of the renderer now in use.
     pub active: &'a ClipmapSettings,
     pub adapter: &'a str,
@@ -148,6 +150,8 @@ pub enum PanelAction {
     /// Rebuild the renderer with these (validated) settings.
     ApplyMesh(ClipmapSettings),
     GoToScene(&'static Scene),
+    /// Go to a view typed into the "go to" field.
+    GoToView(CameraSpec),
     /// Fly the `flight` path (space → aircraft → ground) over 30 s.
     PlayFlight,
     /// Render the view offscreen, measure ρ per pixel on the CPU and lay the heat map over the
@@ -165,6 +169,10 @@ pub struct Panel {
     pub last_screenshot: Option<String>,
     /// Where the panel was drawn last frame, in points.
     pub rect: Option<egui::Rect>,
+    /// The "go to" field's text: a view as `--camera` takes it.
+    pub goto_text: String,
+    /// Why the last "go to" text was refused, shown under the field until it is edited.
+    pub goto_error: Option<String>,
 }
 
 impl Panel {
@@ -174,6 +182,23 @@ impl Panel {
             message: None,
             last_screenshot: None,
             rect: None,
+            goto_text: String::new(),
+            goto_error: None,
+        }
+    }
+
+    /// Parses the "go to" text for a planet of radius `radius_m`: the action to go there, or
+    /// None with the reason kept in [`Panel::goto_error`].
+    pub fn submit_goto(&mut self, radius_m: f64) -> Option<PanelAction> {
+        match CameraSpec::parse(&self.goto_text, radius_m) {
+            Ok(view) => {
+                self.goto_error = None;
+                Some(PanelAction::GoToView(view))
+            }
+            Err(e) => {
+                self.goto_error = Some(e.to_string());
+                None
+            }
         }
     }
 
@@ -242,6 +267,7 @@ impl Panel {
                 actions.push(PanelAction::PlayFlight);
             }
         });
+        self.goto_section(ui, readout, actions);
         ui.separator();
 
         ui.strong("Rendering");
@@ -295,6 +321,47 @@ impl Panel {
                 ui.small(*line);
             }
         });
+    }
+
+    /// The "go to" field: any view as `--camera` takes it; Enter or "Go" jumps there, "here"
+    /// fills in the current view, a refused text shows why under the field.
+    fn goto_section(
+        &mut self,
+        ui: &mut egui::Ui,
+        readout: &Readout<'_>,
+        actions: &mut Vec<PanelAction>,
+    ) {
+        ui.horizontal(|ui| {
+            ui.label("go to").on_hover_text(format!(
+                "{VIEW_SYNTAX}: degrees and metres, HEIGHT above the terrain \
+                 (HEIGHT@sphere: above the sphere of radius R), as --camera takes it"
+            ));
+            let edit = ui.add(
+                egui::TextEdit::singleline(&mut self.goto_text)
+                    .hint_text("45.65,10.65,500,90,-10")
+                    .desired_width(170.0),
+            );
+            if edit.changed() {
+                self.goto_error = None;
+            }
+            let entered = edit.lost_focus() && ui.input(|i| i.key_pressed(egui::Key::Enter));
+            if (ui.button("Go").clicked() || entered)
+                && let Some(action) = self.submit_goto(readout.radius_m)
+            {
+                actions.push(action);
+            }
+            if ui
+                .button("here")
+                .on_hover_text("fill in the current view")
+                .clicked()
+            {
+                self.goto_text = CameraSpec::from_camera(readout.camera).to_string();
+                self.goto_error = None;
+            }
+        });
+        if let Some(error) = &self.goto_error {
+            ui.label(RichText::new(error).color(Color32::LIGHT_RED));
+        }
     }
 
     fn mesh_section(
@@ -624,6 +691,34 @@ mod tests {
         assert_eq!(format_deg(1.5e-7), "1.500e-7°");
     }
 
+    #[test]
+    fn goto_field_parses_or_keeps_the_error() {
+        let mut panel = Panel::new(&ClipmapSettings::default());
+        let r = crate::geo::EARTH_RADIUS_M;
+        for (text, error) in [
+            ("91,0,10,0,0", "latitude 91° is outside [-90, 90]"),
+            ("0,0,NaN,0,0", "height NaN is not a finite number"),
+            ("0,0,-7000000@sphere,0,0", "height -7000000 m is below -R"),
+            ("1,2,3", "'1,2,3' has 3 comma-separated fields"),
+            ("0,x,10,0,0", "longitude 'x' is not a number"),
+        ] {
+            panel.goto_text = text.into();
+            assert_eq!(panel.submit_goto(r), None, "{text}");
+            let shown = panel.goto_error.clone().unwrap();
+            assert!(shown.starts_with(error), "{text}: {shown}");
+        }
+        panel.goto_text = "45.65,10.65,500,90,-10".into();
+        let Some(PanelAction::GoToView(view)) = panel.submit_goto(r) else {
+            panic!("a valid view was refused: {:?}", panel.goto_error);
+        };
+        assert_eq!(panel.goto_error, None);
+        assert_eq!(view, "45.65,10.65,500,90,-10".parse().unwrap());
+        // The radius is the planet's.
+        panel.goto_text = "0,0,-2000@sphere,0,0".into();
+        assert!(panel.submit_goto(r).is_some());
+        assert!(panel.submit_goto(1000.0).is_none());
+    }
+
     /// The panel lays out without a window (egui runs headless) for every kind of readout.
     #[test]
     fn panel_lays_out_headless() {
@@ -648,12 +743,16 @@ mod tests {
             overlay_levels: false,
         };
         let ctx = egui::Context::default();
+        // The "go to" field's error line lays out too.
+        panel.goto_text = "91,0,10,0,0".into();
+        assert!(panel.submit_goto(crate::geo::EARTH_RADIUS_M).is_none());
         for info in [None, Some(&info)] {
             let readout = Readout {
                 stats: &stats,
                 info,
                 camera: &camera,
                 terrain_height_m: 0.0,
+                radius_m: crate::geo::EARTH_RADIUS_M,
                 active: &settings,
                 adapter: "test adapter",
                 surface: "test surface",
