@@ -90,8 +90,7 @@ impl DemFeed {
         fill_capacity: u32,
     ) -> Result<Self, RenderError> {
         let source = open_source(dem.pyramid_arc(), settings.faults);
-        let streamer = TileStreamer::new(source, &settings)
-            .map_err(|e| RenderError::Stream(format!("could not start the tile streamer: {e}")))?;
+        let streamer = TileStreamer::new(source, &settings).map_err(RenderError::StreamerStart)?;
         let gpu = GpuTileCache::new(device, dem.pyramid(), settings.gpu_tiles);
         Ok(Self {
             cache: TileCache::new(settings.cache_bytes),

@@ -36,6 +36,16 @@ pub enum RenderError {
     Readback(String),
     #[error("the GPU reported an error: {0}")]
     Gpu(String),
-    #[error("{0}")]
-    Stream(String),
+    #[error("could not start the tile streamer: {0}")]
+    StreamerStart(#[source] std::io::Error),
+    #[error(
+        "streaming did not settle within {timeout_s} s: {tiles_missing} tiles still missing, {in_flight} in flight; last error: {}",
+        last_error.as_deref().unwrap_or("none")
+    )]
+    NotSettled {
+        timeout_s: u64,
+        tiles_missing: u32,
+        in_flight: u64,
+        last_error: Option<String>,
+    },
 }

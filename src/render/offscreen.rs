@@ -79,21 +79,13 @@ impl OffscreenFrame {
         camera: &Camera,
     ) -> Result<RenderedFrame, RenderError> {
         if !renderer.settle(ctx, camera, self.width, self.height, SETTLE_TIMEOUT) {
-            let why = renderer
-                .feed()
-                .map(|f| {
-                    format!(
-                        "{} tiles still missing, {} in flight; last error: {}",
-                        f.last.tiles_missing,
-                        f.last.stream.in_flight,
-                        f.last.last_error.as_deref().unwrap_or("none")
-                    )
-                })
-                .unwrap_or_default();
-            return Err(RenderError::Stream(format!(
-                "streaming did not settle within {} s: {why}",
-                SETTLE_TIMEOUT.as_secs()
-            )));
+            let last = renderer.feed().map(|f| f.last.clone()).unwrap_or_default();
+            return Err(RenderError::NotSettled {
+                timeout_s: SETTLE_TIMEOUT.as_secs(),
+                tiles_missing: last.tiles_missing,
+                in_flight: last.stream.in_flight,
+                last_error: last.last_error,
+            });
         }
         self.render_now(ctx, renderer, camera)
     }
