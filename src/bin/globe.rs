@@ -8,6 +8,7 @@ use anyhow::{Context, bail};
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use globe::clipmap::selection::LevelStatus;
 use globe::clipmap::{ClipmapSettings, TransformForm};
+use globe::progress::Progress;
 use globe::render::offscreen::{COLOR_FORMAT, OffscreenFrame};
 use globe::render::{GpuContext, TerrainRenderer};
 use globe::scenes::{SCENES, Scene, scene_names};
@@ -132,17 +133,19 @@ struct DemArgs {
 
 impl DemArgs {
     fn open(&self) -> anyhow::Result<Terrain> {
-        let mut last_pct = -1i64;
+        // Shown only once an import starts (an open from the cache reports nothing).
+        let mut progress = None;
         let terrain = globe::terrain::open_terrain(&self.dem, |fraction| {
-            let pct = (fraction * 100.0).floor() as i64;
-            if pct != last_pct {
-                last_pct = pct;
-                eprint!("\rimporting {} into the cache: {pct:3} %", self.dem);
-            }
+            progress
+                .get_or_insert_with(|| {
+                    let label = format!("importing {} into the cache", self.dem);
+                    Progress::new(label, 1000, None)
+                })
+                .set_fraction(fraction)
         })
         .with_context(|| format!("cannot open the terrain '{}'", self.dem))?;
-        if last_pct >= 0 {
-            eprintln!();
+        if let Some(p) = progress {
+            p.finish();
         }
         Ok(terrain)
     }
@@ -519,15 +522,12 @@ fn bench(args: &BenchArgs) -> anyhow::Result<ExitCode> {
                 (fps > 0.0).then(|| std::time::Duration::from_secs_f64(1.0 / fps))
             },
         };
-        let run = globe::bench::run(&ctx, &terrain, &options, |done, total| {
-            if done % 10 == 0 || done == total {
-                eprint!(
-                    "\r{} (latency {latency} ms): frame {done}/{total}",
-                    args.scene
-                );
-            }
+        let label = format!("{} (latency {latency} ms)", args.scene);
+        let mut progress = Progress::new(label, args.frames as u64, Some("frames"));
+        let run = globe::bench::run(&ctx, &terrain, &options, |done, _| {
+            progress.set(done as u64)
         })?;
-        eprintln!();
+        progress.finish();
         if let Some(path) = &args.csv {
             let path = if args.stream.tile_latency_ms.len() > 1 {
                 let stem = path.file_stem().unwrap_or_default().to_string_lossy();
@@ -539,7 +539,7 @@ fn bench(args: &BenchArgs) -> anyhow::Result<ExitCode> {
                 .with_context(|| format!("cannot write {}", path.display()))?;
         }
         if args.json {
-            println!("{}", run.to_json(&[]));
+            println!("{}", run.to_json());
         } else {
             print_bench(&run);
         }
@@ -660,61 +660,10 @@ fn bench_jump(args: &BenchArgs) -> anyhow::Result<ExitCode> {
         .context("cannot start the tile streamer")?;
     eprintln!("jump aircraft → everest…");
     let jump = globe::bench::jump(&ctx, &terrain, &options, "aircraft", "everest")?;
-    let fields = [
-        ("adapter", globe::bench::json_string(&adapter)),
-        ("scene", "\"jump\"".to_string()),
-        ("file_bytes", dem.pyramid().info().file_bytes.to_string()),
-        ("width", args.width.to_string()),
-        ("height", args.height.to_string()),
-        ("jump_from", globe::bench::json_string(&jump.from)),
-        ("jump_to", globe::bench::json_string(&jump.to)),
-        (
-            "jump_to_full_detail_s",
-            format!("{:.3}", jump.to_full_detail_s),
-        ),
-        ("jump_frames", jump.frames.to_string()),
-        ("jump_tiles_loaded", jump.tiles_loaded.to_string()),
-        ("jump_tiles_cancelled", jump.tiles_cancelled.to_string()),
-        ("jump_bytes_read", jump.bytes_read.to_string()),
-        ("throughput_tiles", tp.tiles.to_string()),
-        (
-            "pipeline_tiles_per_s",
-            format!("{:.1}", tp.tiles_per_s(tp.pipeline_s[0])),
-        ),
-        (
-            "pipeline_mb_per_s",
-            format!("{:.1}", tp.mb_per_s(tp.pipeline_s[0])),
-        ),
-        (
-            "raw_tiles_per_s",
-            format!("{:.1}", tp.tiles_per_s(tp.raw_s[0])),
-        ),
-        ("raw_mb_per_s", format!("{:.1}", tp.mb_per_s(tp.raw_s[0]))),
-        (
-            "pipeline_vs_raw",
-            format!("{:.3}", tp.raw_s[0] / tp.pipeline_s[0]),
-        ),
-        (
-            "pipeline_mb_per_s_cached",
-            format!("{:.1}", tp.mb_per_s(tp.pipeline_s[1])),
-        ),
-        (
-            "raw_mb_per_s_cached",
-            format!("{:.1}", tp.mb_per_s(tp.raw_s[1])),
-        ),
-        (
-            "pipeline_vs_raw_cached",
-            format!("{:.3}", tp.raw_s[1] / tp.pipeline_s[1]),
-        ),
-        ("tile_latency_ms", stream.faults.latency_ms.to_string()),
-        ("max_in_flight", stream.max_in_flight.to_string()),
-    ];
     if args.json {
-        let body: Vec<String> = fields
-            .iter()
-            .map(|(k, v)| format!("{}: {v}", globe::bench::json_string(k)))
-            .collect();
-        println!("{{{}}}", body.join(", "));
+        let file_bytes = dem.pyramid().info().file_bytes;
+        let json = globe::bench::JumpJson::new(&adapter, file_bytes, &options, &jump, &tp);
+        println!("{}", globe::bench::to_json_line(&json));
     } else {
         println!(
             "jump {} → {}: full detail after {:.3} s ({} frames, {} tiles loaded, {} cancelled, {:.1} MiB)",
@@ -765,13 +714,19 @@ fn report(args: &ReportArgs) -> anyhow::Result<ExitCode> {
         stream: args.stream.settings()?,
     };
     let started = Instant::now();
-    let rows = globe::report::run(&ctx, &terrain, &options, |line| {
-        eprintln!("{:7.1} s  {line}", started.elapsed().as_secs_f64());
+    let mut progress = None;
+    let rows = globe::report::run(&ctx, &terrain, &options, |step| {
+        progress
+            .get_or_insert_with(|| Progress::new("report", step.total as u64, Some("steps")))
+            .step(step.index as u64, step.message.as_str())
     })?;
+    if let Some(p) = progress {
+        p.finish();
+    }
     globe::report::write(&args.out, &rows, &adapter, &terrain.describe(), &options)
         .with_context(|| format!("cannot write the report into {}", args.out.display()))?;
     eprintln!(
-        "wrote {}/report.csv, report.md, error_vs_time.png ({} rows) in {:.1} s",
+        "wrote {}/report.csv, report.json, report.md, error_vs_time.png and .svg ({} rows) in {:.1} s",
         args.out.display(),
         rows.len(),
         started.elapsed().as_secs_f64()
