@@ -602,7 +602,8 @@ mod tests {
             .keys()
             .map(|k| k.as_str())
             .collect();
-        (columns.sort(), keys.sort());
+        columns.sort();
+        keys.sort();
         assert_eq!(keys, columns);
     }
 
