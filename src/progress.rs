@@ -158,32 +158,42 @@ impl Progress {
         line
     }
 
-    /// Ends the display, all done (a last line without a terminal: `label: done, 22 steps in
-    /// 78.4 s`), and returns the elapsed seconds.
+    /// Ends the display with one line, `label: done, 22 steps in 78.4 s`, and returns the
+    /// elapsed seconds.
     pub fn finish(mut self) -> f64 {
         let seconds = self.started.elapsed().as_secs_f64();
+        let units = self.unit.map(|u| format!(", {} {u}", self.total));
+        let done = format!(
+            "{}: done{} in {seconds:.1} s",
+            self.label,
+            units.unwrap_or_default()
+        );
         match &mut self.output {
+            // The bar gives way to the same closing line as in a log.
             Output::Bar(bar) => {
-                bar.set_position(self.total);
-                bar.finish();
+                bar.finish_and_clear();
+                eprintln!("{done}");
             }
             Output::Lines { out, .. } => {
-                let units = self.unit.map(|u| format!(", {} {u}", self.total));
-                let units = units.unwrap_or_default();
-                let _ = writeln!(out, "{}: done{units} in {seconds:.1} s", self.label);
+                let _ = writeln!(out, "{done}");
             }
         }
         seconds
     }
 }
 
-fn terminal_bar(total: u64, unit: Option<&'static str>) -> ProgressBar {
+/// The bar's layout: label, bar, counts (or percent), rate and time left, the current step.
+fn bar_template(unit: Option<&'static str>) -> String {
     let counts = match unit {
         Some(u) => format!("{{human_pos}}/{{human_len}} {u} ({{per_sec}}, {{eta}} left)"),
         None => "{percent:>3} % ({eta} left)".into(),
     };
-    let template = format!("{{prefix}} {{wide_bar}} {counts} {{msg}}");
-    let style = ProgressStyle::with_template(&template)
+    format!("{{prefix}} {{wide_bar}} {counts} {{msg}}")
+}
+
+fn terminal_bar(total: u64, unit: Option<&'static str>) -> ProgressBar {
+    // The templates are fixed and checked by a test.
+    let style = ProgressStyle::with_template(&bar_template(unit))
         .unwrap_or_else(|_| ProgressStyle::default_bar())
         .progress_chars("=> ");
     ProgressBar::with_draw_target(Some(total.max(1)), ProgressDrawTarget::stderr())
@@ -212,6 +222,13 @@ mod tests {
     impl Sink {
         fn text(&self) -> String {
             String::from_utf8(self.0.lock().unwrap().clone()).unwrap()
+        }
+    }
+
+    #[test]
+    fn the_bar_templates_parse() {
+        for unit in [None, Some("rows")] {
+            assert!(ProgressStyle::with_template(&bar_template(unit)).is_ok());
         }
     }
 
