@@ -37,8 +37,8 @@ enum Command {
     /// Benchmark a scene or the `flight` path headless: per-frame CPU and GPU time,
     /// triangles, levels, streaming counters (median/min/max; `--json` for one JSON object).
     Bench(BenchArgs),
-    /// Run every method and setting over the named scenes and write report.csv, report.md
-    /// and error_vs_time.png: triangles, CPU/GPU time and the per-pixel error ρ.
+    /// Run every method and setting over the named scenes and write report.csv, report.json,
+    /// report.md and error_vs_time.png/.svg: triangles, CPU/GPU time and the per-pixel error ρ.
     Report(ReportArgs),
     /// List the named scenes (the viewer's bookmarks).
     Scenes,
@@ -46,7 +46,7 @@ enum Command {
 
 #[derive(Args)]
 struct ReportArgs {
-    /// Folder to write report.csv, report.md and error_vs_time.png into (created if missing).
+    /// Folder to write the report's files into (created if missing).
     #[arg(long)]
     out: PathBuf,
     /// Scenes to run, comma-separated.
