@@ -9,6 +9,8 @@
 
 use std::time::Instant;
 
+use serde::Serialize;
+
 use crate::clipmap::ClipmapSettings;
 use crate::geo::camera::Camera;
 use crate::measure::ErrorStats;
@@ -334,143 +336,131 @@ impl BenchRun {
         self.frames.last().and_then(|f| f.stream.as_ref())
     }
 
-    /// One JSON object (the fields `globe bench --json` promises; figures that vary per frame
-    /// are medians, with `_min`/`_max` beside the times).
-    pub fn to_json(&self, extra: &[(&str, String)]) -> String {
-        let num = |v: Option<f64>| v.map_or("null".to_string(), |x| format!("{x:.4}"));
-        let med =
-            |f: &dyn Fn(&FrameRecord) -> Option<f64>| num(summary(&self.values(f)).map(|s| s.0));
-        let cpu = self.cpu_ms();
-        let gpu = self.gpu_ms();
+    /// The fields `globe bench --json` promises: figures that vary per frame are medians, with
+    /// `_min`/`_max` beside the times.
+    pub fn json_fields(&self) -> BenchJson {
+        let med = |f: &dyn Fn(&FrameRecord) -> Option<f64>| summary(&self.values(f)).map(|s| s.0);
+        let (cpu, gpu) = (self.cpu_ms(), self.gpu_ms());
         let frame = summary(&self.values(|f| Some(f.frame_ms)));
         let o = &self.options;
-        let mut fields: Vec<(String, String)> = vec![
-            ("adapter".into(), json_string(&self.adapter)),
-            ("scene".into(), json_string(&o.scene)),
-            ("width".into(), o.width.to_string()),
-            ("height".into(), o.height.to_string()),
-            ("frames".into(), self.frames.len().to_string()),
-            ("cpu_ms".into(), num(cpu.map(|s| s.0))),
-            ("cpu_ms_min".into(), num(cpu.map(|s| s.1))),
-            ("cpu_ms_max".into(), num(cpu.map(|s| s.2))),
-            ("frame_ms".into(), num(frame.map(|s| s.0))),
-            ("gpu_ms".into(), num(gpu.map(|s| s.0))),
-            ("gpu_ms_min".into(), num(gpu.map(|s| s.1))),
-            ("gpu_ms_max".into(), num(gpu.map(|s| s.2))),
-            (
-                "fill_gpu_ms".into(),
-                num(summary(&self.values(|f| f.fill_gpu_ms)).map(|s| s.0)),
-            ),
-            (
-                "texels_filled".into(),
-                self.frames
-                    .iter()
-                    .map(|f| f.texels_filled)
-                    .sum::<u64>()
-                    .to_string(),
-            ),
-            ("triangles".into(), med(&|f| Some(f.triangles as f64))),
-            ("levels_drawn".into(), med(&|f| Some(f.levels_drawn as f64))),
-            (
-                "frames_with_levels_waiting".into(),
-                self.frames
-                    .iter()
-                    .filter(|f| f.levels_waiting > 0)
-                    .count()
-                    .to_string(),
-            ),
-        ];
         let s = self.last_stream();
-        let stat =
-            |f: &dyn Fn(&FeedFrame) -> u64| s.map_or("null".to_string(), |s| f(s).to_string());
-        fields.extend([
-            (
-                "tiles_requested".into(),
-                stat(&|s| s.stream.tiles_requested),
-            ),
-            ("tiles_loaded".into(), stat(&|s| s.stream.tiles_loaded)),
-            (
-                "tiles_cancelled".into(),
-                stat(&|s| s.stream.tiles_cancelled),
-            ),
-            ("tiles_failed".into(), stat(&|s| s.stream.tiles_failed)),
-            ("retries".into(), stat(&|s| s.stream.retries)),
-            ("bytes_read".into(), stat(&|s| s.stream.bytes_read)),
-            ("cache_bytes".into(), stat(&|s| s.cache_bytes)),
-            ("cache_bytes_max".into(), self.cache_bytes_max().to_string()),
-            ("cache_budget".into(), o.stream.cache_bytes.to_string()),
-            ("gpu_bytes_uploaded".into(), stat(&|s| s.gpu_bytes_uploaded)),
-            (
-                "uploads_max_per_frame".into(),
-                self.frames
-                    .iter()
-                    .filter_map(|f| f.stream.as_ref().map(|s| s.uploads))
-                    .max()
-                    .unwrap_or(0)
-                    .to_string(),
-            ),
-            (
-                "tile_latency_ms".into(),
-                o.stream.faults.latency_ms.to_string(),
-            ),
-            (
-                "tile_fail_rate".into(),
-                format!("{}", o.stream.faults.fail_rate),
-            ),
-            ("settle_s".into(), num(self.settle_s)),
-            ("settled".into(), self.settled.to_string()),
-            (
-                "final_vs_loaded_px".into(),
-                self.final_vs_loaded_px
-                    .map_or("null".to_string(), |n| n.to_string()),
-            ),
-            ("mean_px".into(), num(self.error.map(|e| e.mean_px))),
-            ("p99_px".into(), num(self.error.map(|e| e.p99_px))),
-            ("max_px".into(), num(self.error.map(|e| e.max_px))),
-            (
-                "error_pixels_pct".into(),
-                num(self.error.map(|e| 100.0 * e.error_pixel_share)),
-            ),
-            (
-                "mismatch_px".into(),
-                self.error
-                    .and_then(|e| e.coverage)
-                    .map_or("null".to_string(), |c| c.mismatched().to_string()),
-            ),
-            ("passthrough_gpu_ms".into(), num(self.passthrough_gpu_ms())),
-            (
-                "terrain_vs_passthrough".into(),
-                num(self
-                    .gpu_ms()
-                    .zip(self.passthrough_gpu_ms())
-                    .map(|(t, p)| t.0 / p)),
-            ),
-            ("wall_s".into(), format!("{:.3}", self.wall_s)),
-        ]);
-        for (k, v) in extra {
-            fields.push((k.to_string(), v.clone()));
+        let stat = |f: &dyn Fn(&FeedFrame) -> u64| s.map(f);
+        BenchJson {
+            adapter: self.adapter.clone(),
+            scene: o.scene.clone(),
+            width: o.width,
+            height: o.height,
+            frames: self.frames.len(),
+            cpu_ms: cpu.map(|s| s.0),
+            cpu_ms_min: cpu.map(|s| s.1),
+            cpu_ms_max: cpu.map(|s| s.2),
+            frame_ms: frame.map(|s| s.0),
+            gpu_ms: gpu.map(|s| s.0),
+            gpu_ms_min: gpu.map(|s| s.1),
+            gpu_ms_max: gpu.map(|s| s.2),
+            fill_gpu_ms: med(&|f| f.fill_gpu_ms),
+            texels_filled: self.frames.iter().map(|f| f.texels_filled).sum(),
+            triangles: med(&|f| Some(f.triangles as f64)),
+            levels_drawn: med(&|f| Some(f64::from(f.levels_drawn))),
+            frames_with_levels_waiting: (self.frames.iter())
+                .filter(|f| f.levels_waiting > 0)
+                .count(),
+            tiles_requested: stat(&|s| s.stream.tiles_requested),
+            tiles_loaded: stat(&|s| s.stream.tiles_loaded),
+            tiles_cancelled: stat(&|s| s.stream.tiles_cancelled),
+            tiles_failed: stat(&|s| s.stream.tiles_failed),
+            retries: stat(&|s| s.stream.retries),
+            bytes_read: stat(&|s| s.stream.bytes_read),
+            cache_bytes: stat(&|s| s.cache_bytes),
+            cache_bytes_max: self.cache_bytes_max(),
+            cache_budget: o.stream.cache_bytes,
+            gpu_bytes_uploaded: stat(&|s| s.gpu_bytes_uploaded),
+            uploads_max_per_frame: (self.frames.iter())
+                .filter_map(|f| f.stream.as_ref().map(|s| s.uploads))
+                .max()
+                .unwrap_or(0),
+            tile_latency_ms: o.stream.faults.latency_ms,
+            tile_fail_rate: o.stream.faults.fail_rate,
+            settle_s: self.settle_s,
+            settled: self.settled,
+            final_vs_loaded_px: self.final_vs_loaded_px,
+            mean_px: self.error.map(|e| e.mean_px),
+            p99_px: self.error.map(|e| e.p99_px),
+            max_px: self.error.map(|e| e.max_px),
+            error_pixels_pct: self.error.map(|e| 100.0 * e.error_pixel_share),
+            mismatch_px: (self.error)
+                .and_then(|e| e.coverage)
+                .map(|c| c.mismatched()),
+            passthrough_gpu_ms: self.passthrough_gpu_ms(),
+            terrain_vs_passthrough: (self.gpu_ms())
+                .zip(self.passthrough_gpu_ms())
+                .map(|(t, p)| t.0 / p),
+            wall_s: self.wall_s,
         }
-        let body: Vec<String> = fields
-            .iter()
-            .map(|(k, v)| format!("{}: {v}", json_string(k)))
-            .collect();
-        format!("{{{}}}", body.join(", "))
+    }
+
+    /// [`BenchRun::json_fields`] as one line of JSON.
+    pub fn to_json(&self) -> String {
+        to_json_line(&self.json_fields())
     }
 }
 
-/// A JSON string literal.
-pub fn json_string(s: &str) -> String {
-    let mut out = String::from("\"");
-    for c in s.chars() {
-        match c {
-            '"' => out.push_str("\\\""),
-            '\\' => out.push_str("\\\\"),
-            c if (c as u32) < 0x20 => out.push_str(&format!("\\u{:04x}", c as u32)),
-            c => out.push(c),
-        }
-    }
-    out.push('"');
-    out
+/// One line of JSON. Every JSON that globe writes goes through `serde_json`, whose rule for
+/// floats that JSON cannot hold holds here too: NaN and ±∞ are written as `null`, as a figure
+/// that was not measured (None) is.
+pub fn to_json_line<T: Serialize>(value: &T) -> String {
+    serde_json::to_string(value).expect("plain structs of numbers and strings serialise")
+}
+
+/// `globe bench --json` of a scene or the flight: one object, these fields in this order.
+/// Times in ms and seconds, sizes in bytes; `null` where the figure was not measured (no
+/// timestamp queries, no error measurement, no streaming) or is NaN or infinite.
+#[derive(Clone, Debug, Serialize)]
+pub struct BenchJson {
+    pub adapter: String,
+    pub scene: String,
+    pub width: u32,
+    pub height: u32,
+    pub frames: usize,
+    pub cpu_ms: Option<f64>,
+    pub cpu_ms_min: Option<f64>,
+    pub cpu_ms_max: Option<f64>,
+    pub frame_ms: Option<f64>,
+    pub gpu_ms: Option<f64>,
+    pub gpu_ms_min: Option<f64>,
+    pub gpu_ms_max: Option<f64>,
+    /// Median over the frames that filled texels.
+    pub fill_gpu_ms: Option<f64>,
+    /// Summed over the frames.
+    pub texels_filled: u64,
+    pub triangles: Option<f64>,
+    pub levels_drawn: Option<f64>,
+    pub frames_with_levels_waiting: usize,
+    /// Streaming counters after the last frame.
+    pub tiles_requested: Option<u64>,
+    pub tiles_loaded: Option<u64>,
+    pub tiles_cancelled: Option<u64>,
+    pub tiles_failed: Option<u64>,
+    pub retries: Option<u64>,
+    pub bytes_read: Option<u64>,
+    pub cache_bytes: Option<u64>,
+    pub cache_bytes_max: u64,
+    pub cache_budget: u64,
+    pub gpu_bytes_uploaded: Option<u64>,
+    pub uploads_max_per_frame: u32,
+    pub tile_latency_ms: u64,
+    pub tile_fail_rate: f64,
+    pub settle_s: Option<f64>,
+    pub settled: bool,
+    pub final_vs_loaded_px: Option<usize>,
+    pub mean_px: Option<f64>,
+    pub p99_px: Option<f64>,
+    pub max_px: Option<f64>,
+    pub error_pixels_pct: Option<f64>,
+    pub mismatch_px: Option<usize>,
+    pub passthrough_gpu_ms: Option<f64>,
+    pub terrain_vs_passthrough: Option<f64>,
+    pub wall_s: f64,
 }
 
 #[cfg(test)]
@@ -484,9 +474,31 @@ mod tests {
         assert_eq!(summary(&[]), None);
     }
 
+    /// The NaN/∞ rule: a non-finite figure is null, and the line stays valid JSON.
     #[test]
-    fn json_strings_are_escaped() {
-        assert_eq!(json_string("a\"b\\c\n"), "\"a\\\"b\\\\c\\u000a\"");
+    fn json_writes_nan_and_infinity_as_null() {
+        #[derive(Serialize)]
+        struct T {
+            nan: f64,
+            inf: f64,
+            none: Option<f64>,
+            x: f64,
+            name: &'static str,
+        }
+        let line = to_json_line(&T {
+            nan: f64::NAN,
+            inf: f64::NEG_INFINITY,
+            none: None,
+            x: 1.5,
+            name: "a\"b\n",
+        });
+        assert_eq!(
+            line,
+            r#"{"nan":null,"inf":null,"none":null,"x":1.5,"name":"a\"b\n"}"#
+        );
+        let v: serde_json::Value = serde_json::from_str(&line).unwrap();
+        assert!(v["nan"].is_null() && v["inf"].is_null());
+        assert_eq!(v["name"], "a\"b\n");
     }
 }
 
@@ -719,63 +731,71 @@ pub fn run_jump(
 
 impl JumpRun {
     /// One JSON object: the jump, then the throughput of each pass (`_cached`: the second,
-    /// from the page cache).
+    /// from the page cache); NaN or infinite rates (from a zero time) as `null`.
     pub fn to_json(&self) -> String {
-        let (j, tp, o) = (&self.jump, &self.throughput, &self.options);
-        let fields = [
-            ("adapter", json_string(&self.adapter)),
-            ("scene", json_string(JUMP)),
-            ("file_bytes", self.file_bytes.to_string()),
-            ("width", o.width.to_string()),
-            ("height", o.height.to_string()),
-            ("jump_from", json_string(&j.from)),
-            ("jump_to", json_string(&j.to)),
-            (
-                "jump_to_full_detail_s",
-                format!("{:.3}", j.to_full_detail_s),
-            ),
-            ("jump_frames", j.frames.to_string()),
-            ("jump_tiles_loaded", j.tiles_loaded.to_string()),
-            ("jump_tiles_cancelled", j.tiles_cancelled.to_string()),
-            ("jump_bytes_read", j.bytes_read.to_string()),
-            ("throughput_tiles", tp.tiles.to_string()),
-            (
-                "pipeline_tiles_per_s",
-                format!("{:.1}", tp.tiles_per_s(tp.pipeline_s[0])),
-            ),
-            (
-                "pipeline_mb_per_s",
-                format!("{:.1}", tp.mb_per_s(tp.pipeline_s[0])),
-            ),
-            (
-                "raw_tiles_per_s",
-                format!("{:.1}", tp.tiles_per_s(tp.raw_s[0])),
-            ),
-            ("raw_mb_per_s", format!("{:.1}", tp.mb_per_s(tp.raw_s[0]))),
-            (
-                "pipeline_vs_raw",
-                format!("{:.3}", tp.raw_s[0] / tp.pipeline_s[0]),
-            ),
-            (
-                "pipeline_mb_per_s_cached",
-                format!("{:.1}", tp.mb_per_s(tp.pipeline_s[1])),
-            ),
-            (
-                "raw_mb_per_s_cached",
-                format!("{:.1}", tp.mb_per_s(tp.raw_s[1])),
-            ),
-            (
-                "pipeline_vs_raw_cached",
-                format!("{:.3}", tp.raw_s[1] / tp.pipeline_s[1]),
-            ),
-            ("tile_latency_ms", o.stream.faults.latency_ms.to_string()),
-            ("max_in_flight", o.stream.max_in_flight.to_string()),
-        ];
-        let body: Vec<String> = fields
-            .iter()
-            .map(|(k, v)| format!("{}: {v}", json_string(k)))
-            .collect();
-        format!("{{{}}}", body.join(", "))
+        to_json_line(&JumpJson::new(self))
+    }
+}
+
+/// `globe bench --scene jump --json`: the jump and the throughput, one object, these fields in
+/// this order (NaN or infinite rates, from a zero time, as `null`).
+#[derive(Clone, Debug, Serialize)]
+pub struct JumpJson {
+    pub adapter: String,
+    pub scene: &'static str,
+    pub file_bytes: u64,
+    pub width: u32,
+    pub height: u32,
+    pub jump_from: String,
+    pub jump_to: String,
+    pub jump_to_full_detail_s: f64,
+    pub jump_frames: usize,
+    pub jump_tiles_loaded: u64,
+    pub jump_tiles_cancelled: u64,
+    pub jump_bytes_read: u64,
+    pub throughput_tiles: usize,
+    /// First pass (pages as the caller left them).
+    pub pipeline_tiles_per_s: f64,
+    pub pipeline_mb_per_s: f64,
+    pub raw_tiles_per_s: f64,
+    pub raw_mb_per_s: f64,
+    pub pipeline_vs_raw: f64,
+    /// Second pass (from the page cache).
+    pub pipeline_mb_per_s_cached: f64,
+    pub raw_mb_per_s_cached: f64,
+    pub pipeline_vs_raw_cached: f64,
+    pub tile_latency_ms: u64,
+    pub max_in_flight: usize,
+}
+
+impl JumpJson {
+    pub fn new(run: &JumpRun) -> Self {
+        let (jump, tp, options) = (&run.jump, &run.throughput, &run.options);
+        JumpJson {
+            adapter: run.adapter.clone(),
+            scene: JUMP,
+            file_bytes: run.file_bytes,
+            width: options.width,
+            height: options.height,
+            jump_from: jump.from.clone(),
+            jump_to: jump.to.clone(),
+            jump_to_full_detail_s: jump.to_full_detail_s,
+            jump_frames: jump.frames,
+            jump_tiles_loaded: jump.tiles_loaded,
+            jump_tiles_cancelled: jump.tiles_cancelled,
+            jump_bytes_read: jump.bytes_read,
+            throughput_tiles: tp.tiles,
+            pipeline_tiles_per_s: tp.tiles_per_s(tp.pipeline_s[0]),
+            pipeline_mb_per_s: tp.mb_per_s(tp.pipeline_s[0]),
+            raw_tiles_per_s: tp.tiles_per_s(tp.raw_s[0]),
+            raw_mb_per_s: tp.mb_per_s(tp.raw_s[0]),
+            pipeline_vs_raw: tp.raw_s[0] / tp.pipeline_s[0],
+            pipeline_mb_per_s_cached: tp.mb_per_s(tp.pipeline_s[1]),
+            raw_mb_per_s_cached: tp.mb_per_s(tp.raw_s[1]),
+            pipeline_vs_raw_cached: tp.raw_s[1] / tp.pipeline_s[1],
+            tile_latency_ms: options.stream.faults.latency_ms,
+            max_in_flight: options.stream.max_in_flight,
+        }
     }
 }
 

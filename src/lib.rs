@@ -14,7 +14,8 @@
 //! | [`scenes`] | the named views of DESIGN.md |
 //! | [`measure`] | f64 reference ray caster and the per-pixel screen-space error (error-bounded paper, eq. 2–3) |
 //! | [`bench`] | `globe bench`: timed frames of a scene or the flight path, with their error |
-//! | [`report`] | `globe report`: every setting over the scenes → CSV, Markdown, plot |
+//! | [`report`] | `globe report`: every setting over the scenes → CSV, JSON, Markdown, plot |
+//! | [`progress`] | progress of long work on stderr: a bar on a terminal, plain lines in logs |
 //! | [`ui`] | the window: winit + egui |
 
 pub mod bench;
@@ -23,6 +24,7 @@ pub mod dem;
 pub mod geo;
 pub mod measure;
 pub mod plan;
+pub mod progress;
 pub mod render;
 pub mod report;
 pub mod scenes;

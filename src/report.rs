@@ -1,14 +1,18 @@
 //! `globe report`: every method and setting over the named scenes, measured the same way —
 //! triangles, CPU and GPU time, and the per-pixel error ρ against the terrain function with
-//! coverage against the reference ray caster — written as `report.csv`, `report.md` (tables
-//! in the shape of the error-bounded paper's Tables 1–2) and `error_vs_time.png` (one panel
-//! per scene, one point per setting, the Pareto front drawn).
+//! coverage against the reference ray caster — written as `report.csv`, `report.json` (the
+//! same rows and names; NaN or infinite figures as `null`), `report.md` (tables in the shape of
+//! the error-bounded paper's Tables 1–2) and `error_vs_time.png` / `.svg` (one panel per scene,
+//! one point per setting, the Pareto front drawn).
 
 use std::fmt::Write as _;
 use std::path::Path;
 
+use serde::Serialize;
+
 use crate::bench::{BenchError, summary};
 use crate::clipmap::{ClipmapSettings, TransformForm};
+use crate::measure::plot::{self, Panel, PlotSpec, Point, pareto_front};
 use crate::measure::{self, ErrorStats, PixelSet, RayCaster, ReferenceImage};
 use crate::render::offscreen::{COLOR_FORMAT, OffscreenFrame, SETTLE_TIMEOUT};
 use crate::render::timing::GpuTimer;
@@ -17,49 +21,98 @@ use crate::scenes::{self, CAMERA_VIEW_NAME, CameraSpec};
 use crate::stream::StreamSettings;
 use crate::terrain::Terrain;
 
-/// One method or setting: clipmap settings plus the overlays drawn.
+/// What one setting changes from the base settings: typed, so that nothing is parsed back
+/// from its label (`n=256`), which exists for output only.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Change {
+    /// The base settings as given.
+    Default,
+    /// Mesh resolution n: steps per ring.
+    PhiSteps(u32),
+    /// Mesh resolution m: rings per level.
+    RingsPerLevel(u32),
+    /// Texels per side of each level's height texture.
+    TextureSize(u32),
+    /// Another map-transform form.
+    Transform(TransformForm),
+    /// The level overlay drawn (to show what an overlay costs).
+    OverlayLevels,
+}
+
+impl Change {
+    /// The settings this change makes of `base`.
+    pub fn apply(self, base: &ClipmapSettings) -> ClipmapSettings {
+        let mut s = base.clone();
+        match self {
+            Change::Default | Change::OverlayLevels => {}
+            Change::PhiSteps(n) => s.phi_steps = n,
+            Change::RingsPerLevel(m) => s.rings_per_level = m,
+            Change::TextureSize(t) => s.texture_size = t,
+            Change::Transform(form) => s.transform = form,
+        }
+        s
+    }
+
+    pub fn overlay_levels(self) -> bool {
+        self == Change::OverlayLevels
+    }
+
+    /// The kind of change, for the plot's legend.
+    pub fn group(self) -> &'static str {
+        match self {
+            Change::Default => "default",
+            Change::PhiSteps(_) => "mesh n (steps per ring)",
+            Change::RingsPerLevel(_) => "mesh m (rings)",
+            Change::TextureSize(_) => "texture size",
+            Change::Transform(_) => "map transform",
+            Change::OverlayLevels => "overlay on",
+        }
+    }
+}
+
+/// The label of the tables, the CSV and the plot: `default`, `n=256`, `transform=direct`…
+impl std::fmt::Display for Change {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Change::Default => write!(f, "default"),
+            Change::PhiSteps(n) => write!(f, "n={n}"),
+            Change::RingsPerLevel(m) => write!(f, "m={m}"),
+            Change::TextureSize(t) => write!(f, "texture={t}"),
+            Change::Transform(form) => write!(f, "transform={}", form.name()),
+            Change::OverlayLevels => write!(f, "overlay=levels"),
+        }
+    }
+}
+
+/// One method or setting: the change and the clipmap settings it makes.
 #[derive(Clone, Debug)]
 pub struct Setting {
-    pub name: String,
+    pub change: Change,
     pub settings: ClipmapSettings,
-    pub overlay_levels: bool,
 }
 
 /// The settings the report runs: the defaults, then one parameter changed at a time (mesh
 /// resolution n and m, texture size, each map-transform form), and the level overlay on (to
-/// show what an overlay costs; every other row has overlays off).
+/// show what an overlay costs; every other row has overlays off). Changes that make invalid
+/// settings are left out.
 pub fn settings_grid(base: &ClipmapSettings) -> Vec<Setting> {
-    let with = |name: String, f: &dyn Fn(&mut ClipmapSettings)| {
-        let mut s = base.clone();
-        f(&mut s);
-        Setting {
-            name,
-            settings: s,
-            overlay_levels: false,
-        }
-    };
-    let mut v = vec![with("default".into(), &|_| {})];
-    for n in [256, 1024] {
-        v.push(with(format!("n={n}"), &|s| s.phi_steps = n));
-    }
-    for m in [16, 64] {
-        v.push(with(format!("m={m}"), &|s| s.rings_per_level = m));
-    }
-    for t in [256, 1024] {
-        v.push(with(format!("texture={t}"), &|s| s.texture_size = t));
-    }
-    for form in TransformForm::ALL {
-        if form != base.transform {
-            v.push(with(format!("transform={}", form.name()), &|s| {
-                s.transform = form
-            }));
-        }
-    }
-    let mut overlay = with("overlay=levels".into(), &|_| {});
-    overlay.overlay_levels = true;
-    v.push(overlay);
-    v.retain(|s| s.settings.validate().is_ok());
-    v
+    let mut changes = vec![Change::Default];
+    changes.extend([256, 1024].map(Change::PhiSteps));
+    changes.extend([16, 64].map(Change::RingsPerLevel));
+    changes.extend([256, 1024].map(Change::TextureSize));
+    changes.extend(
+        (TransformForm::ALL.into_iter())
+            .filter(|&form| form != base.transform)
+            .map(Change::Transform),
+    );
+    changes.push(Change::OverlayLevels);
+    (changes.into_iter())
+        .map(|change| Setting {
+            change,
+            settings: change.apply(base),
+        })
+        .filter(|s| s.settings.validate().is_ok())
+        .collect()
 }
 
 #[derive(Clone, Debug)]
@@ -80,7 +133,7 @@ pub struct ReportOptions {
 #[derive(Clone, Debug)]
 pub struct Row {
     pub scene: String,
-    pub setting: String,
+    pub setting: Change,
     pub triangles: u64,
     pub levels_drawn: u32,
     pub cpu_ms: f64,
@@ -112,22 +165,41 @@ pub fn views(options: &ReportOptions) -> Result<Vec<(String, CameraSpec)>, scene
     Ok(views)
 }
 
-/// Runs every setting over every view. `progress` gets a line per step.
+/// One step of [`run`], for a progress display: `index` of `total` steps (a reference ray cast
+/// per view, then one per setting), about to start.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Step {
+    pub index: usize,
+    pub total: usize,
+    pub message: String,
+}
+
+/// Runs every setting over every view. `progress` is told of each step before it starts.
 pub fn run(
     ctx: &GpuContext,
     terrain: &Terrain,
     options: &ReportOptions,
-    mut progress: impl FnMut(&str),
+    mut progress: impl FnMut(&Step),
 ) -> Result<Vec<Row>, BenchError> {
     let grid = settings_grid(&options.base);
     let views = views(options)?;
+    let total = views.len() * (1 + grid.len());
+    let mut index = 0;
+    let mut step = |message: String| {
+        progress(&Step {
+            index,
+            total,
+            message,
+        });
+        index += 1;
+    };
     let timer = GpuTimer::new(ctx);
     let target = OffscreenFrame::new(&ctx.device, options.width, options.height);
     let mut rows = Vec::new();
     for (si, (name, view)) in views.iter().enumerate() {
         let camera = view.camera(|lat, lon| terrain.height_at_lat_lon_m(lat, lon));
-        progress(&format!(
-            "[{}/{}] {name}: reference ray cast at {}×{}…",
+        step(format!(
+            "[{}/{}] {name}: reference ray cast at {}×{}",
             si + 1,
             views.len(),
             options.width,
@@ -136,13 +208,13 @@ pub fn run(
         let reference: ReferenceImage =
             RayCaster::new(terrain, &camera, options.width, options.height).cast(&PixelSet::All);
         for (k, setting) in grid.iter().enumerate() {
-            progress(&format!(
+            step(format!(
                 "[{}/{}] {name}: setting {}/{} {}",
                 si + 1,
                 views.len(),
                 k + 1,
                 grid.len(),
-                setting.name
+                setting.change
             ));
             let mut r = TerrainRenderer::with_streaming(
                 &ctx.device,
@@ -151,7 +223,7 @@ pub fn run(
                 COLOR_FORMAT,
                 options.stream,
             )?;
-            r.overlays.levels = setting.overlay_levels;
+            r.overlays.levels = setting.change.overlay_levels();
             r.settle(ctx, &camera, options.width, options.height, SETTLE_TIMEOUT);
             let mut timed = Vec::new();
             for i in 0..options.frames + 2 {
@@ -177,7 +249,7 @@ pub fn run(
             let info = &timed.last().expect("timed frames").info;
             rows.push(Row {
                 scene: name.clone(),
-                setting: setting.name.clone(),
+                setting: setting.change,
                 triangles: info.draw.triangles,
                 levels_drawn: info.selection.finest - info.selection.coarsest + 1,
                 cpu_ms: med(&|f| Some(f.cpu_ms)).unwrap_or(f64::NAN),
@@ -218,21 +290,24 @@ pub fn csv(rows: &[Row]) -> String {
     out
 }
 
-/// Settings not dominated in (time, p99 ρ) within one scene, sorted by time.
-pub fn pareto(rows: &[&Row]) -> Vec<String> {
-    let mut front: Vec<&Row> = rows
-        .iter()
-        .copied()
-        .filter(|a| {
-            !rows.iter().any(|b| {
-                b.time_ms() <= a.time_ms()
-                    && b.error.p99_px <= a.error.p99_px
-                    && (b.time_ms() < a.time_ms() || b.error.p99_px < a.error.p99_px)
-            })
+/// The plot's points of one scene's rows: time against p99 ρ, labelled and grouped by setting.
+fn points(rows: &[&Row]) -> Vec<Point> {
+    (rows.iter())
+        .map(|r| Point {
+            label: r.setting.to_string(),
+            group: r.setting.group().to_string(),
+            x: r.time_ms(),
+            y: r.error.p99_px,
         })
-        .collect();
-    front.sort_by(|a, b| a.time_ms().total_cmp(&b.time_ms()));
-    front.iter().map(|r| r.setting.clone()).collect()
+        .collect()
+}
+
+/// Settings not dominated in (time, p99 ρ) within one scene, sorted by time
+/// ([`pareto_front`]).
+pub fn pareto(rows: &[&Row]) -> Vec<Change> {
+    (pareto_front(&points(rows)).into_iter())
+        .map(|i| rows[i].setting)
+        .collect()
 }
 
 /// Triangles the spherical-clipmaps paper draws in its scenes (its Table 1).
@@ -302,7 +377,10 @@ pub fn markdown(rows: &[Row], adapter: &str, terrain: &str, options: &ReportOpti
         let _ = writeln!(
             md,
             "\nPareto front (time against p99 ρ): {}\n",
-            pareto(&in_scene).join(" → ")
+            (pareto(&in_scene).iter())
+                .map(Change::to_string)
+                .collect::<Vec<_>>()
+                .join(" → ")
         );
     }
     let _ = writeln!(md, "## Triangles against the spherical-clipmaps paper\n");
@@ -314,7 +392,7 @@ pub fn markdown(rows: &[Row], adapter: &str, terrain: &str, options: &ReportOpti
     for (scene, paper) in PAPER_TRIANGLES {
         if let Some(r) = rows
             .iter()
-            .find(|r| r.scene == scene && r.setting == "default")
+            .find(|r| r.scene == scene && r.setting == Change::Default)
         {
             let _ = writeln!(
                 md,
@@ -330,78 +408,268 @@ pub fn markdown(rows: &[Row], adapter: &str, terrain: &str, options: &ReportOpti
     md
 }
 
-/// The kind of a setting, for the plot's legend (`n=256` → "mesh n").
-fn group_of(setting: &str) -> String {
-    match setting.split('=').next().unwrap_or(setting) {
-        "n" => "mesh n (steps per ring)".into(),
-        "m" => "mesh m (rings)".into(),
-        "texture" => "texture size".into(),
-        "transform" => "map transform".into(),
-        "overlay" => "overlay on".into(),
-        other => other.into(),
-    }
-}
+/// Size of one panel of `error_vs_time.png` in pixels; panels stack downwards.
+pub const PLOT_PANEL_PX: (u32, u32) = (1100, 620);
 
-/// `error_vs_time.png`: one panel per scene (p99 ρ against time, log–log), stacked.
-pub fn plot(rows: &[Row], adapter: &str) -> image::RgbImage {
-    use crate::measure::plot::{PlotSpec, Point, render_plot};
+/// The panels of `error_vs_time`: one per scene (p99 ρ against time, log–log).
+pub fn plot_panels(rows: &[Row], adapter: &str) -> Vec<Panel> {
     let mut scenes: Vec<&str> = Vec::new();
     for r in rows {
         if !scenes.contains(&r.scene.as_str()) {
             scenes.push(&r.scene);
         }
     }
-    let (w, h) = (1100u32, 620u32);
-    let mut out =
-        image::RgbImage::from_pixel(w, h * scenes.len().max(1) as u32, image::Rgb([255; 3]));
     let gpu = rows.iter().all(|r| r.gpu_ms.is_some());
-    for (i, scene) in scenes.iter().enumerate() {
-        let points: Vec<Point> = rows
-            .iter()
-            .filter(|r| r.scene == *scene)
-            .map(|r| Point {
-                label: r.setting.clone(),
-                group: group_of(&r.setting),
-                x: r.time_ms(),
-                y: r.error.p99_px,
-            })
-            .collect();
-        let spec = PlotSpec {
-            title: format!("{scene}: p99 error against time, {adapter}"),
-            x_label: if gpu {
-                "GPU time of the terrain pass (ms)".into()
-            } else {
-                "frame time (ms)".into()
-            },
-            y_label: "p99 error ρ (px)".into(),
-            log_x: true,
-            log_y: true,
-            width: w,
-            height: h,
-        };
-        let panel = render_plot(&spec, &points);
-        image::imageops::replace(&mut out, &panel, 0, i as i64 * h as i64);
-    }
-    out
+    (scenes.iter())
+        .map(|scene| {
+            let in_scene: Vec<&Row> = rows.iter().filter(|r| r.scene == *scene).collect();
+            Panel {
+                spec: PlotSpec {
+                    title: format!("{scene}: p99 error against time, {adapter}"),
+                    x_label: if gpu {
+                        "GPU time of the terrain pass (ms)".into()
+                    } else {
+                        "frame time (ms)".into()
+                    },
+                    y_label: "p99 error ρ (px)".into(),
+                    log_x: true,
+                    log_y: true,
+                },
+                points: points(&in_scene),
+            }
+        })
+        .collect()
 }
 
-/// Writes `report.csv`, `report.md` and `error_vs_time.png` into `dir` (created if missing).
+/// One row of `report.json`: the CSV's columns under the CSV's names.
+#[derive(Clone, Debug, Serialize)]
+pub struct JsonRow {
+    pub scene: String,
+    pub setting: String,
+    pub triangles: u64,
+    pub levels_drawn: u32,
+    pub cpu_ms: f64,
+    pub frame_ms: f64,
+    pub gpu_ms: Option<f64>,
+    pub mean_px: f64,
+    pub p99_px: f64,
+    pub max_px: f64,
+    pub error_pixels_pct: f64,
+    pub mismatch_px: usize,
+    pub pixels_measured: usize,
+}
+
+impl From<&Row> for JsonRow {
+    fn from(r: &Row) -> Self {
+        JsonRow {
+            scene: r.scene.clone(),
+            setting: r.setting.to_string(),
+            triangles: r.triangles,
+            levels_drawn: r.levels_drawn,
+            cpu_ms: r.cpu_ms,
+            frame_ms: r.frame_ms,
+            gpu_ms: r.gpu_ms,
+            mean_px: r.error.mean_px,
+            p99_px: r.error.p99_px,
+            max_px: r.error.max_px,
+            error_pixels_pct: 100.0 * r.error.error_pixel_share,
+            mismatch_px: r.mismatch_px(),
+            pixels_measured: r.error.pixels_measured,
+        }
+    }
+}
+
+/// `report.json`: an array of [`JsonRow`]s. A NaN or infinite figure (a median of no frames)
+/// is written as `null`, as a missing one (`gpu_ms` without timestamp queries) is.
+pub fn json(rows: &[Row]) -> String {
+    let rows: Vec<JsonRow> = rows.iter().map(JsonRow::from).collect();
+    serde_json::to_string_pretty(&rows).expect("rows of numbers and strings serialise")
+}
+
+/// Writes `report.csv`, `report.json`, `report.md`, `error_vs_time.png` and
+/// `error_vs_time.svg` into `dir` (created if missing).
 pub fn write(
     dir: &Path,
     rows: &[Row],
     adapter: &str,
     terrain: &str,
     options: &ReportOptions,
-) -> std::io::Result<()> {
-    std::fs::create_dir_all(dir)?;
-    std::fs::write(dir.join("report.csv"), csv(rows))?;
-    std::fs::write(
-        dir.join("report.md"),
-        markdown(rows, adapter, terrain, options),
-    )?;
+) -> Result<(), ReportError> {
+    let io = |path: std::path::PathBuf| move |source| ReportError::Write { path, source };
+    std::fs::create_dir_all(dir).map_err(io(dir.to_path_buf()))?;
+    let text_files = [
+        ("report.csv", csv(rows)),
+        ("report.json", json(rows)),
+        ("report.md", markdown(rows, adapter, terrain, options)),
+    ];
+    for (name, text) in text_files {
+        let path = dir.join(name);
+        std::fs::write(&path, text).map_err(io(path))?;
+    }
     let short = adapter.split(" (").next().unwrap_or(adapter);
-    plot(rows, short)
-        .save(dir.join("error_vs_time.png"))
-        .map_err(std::io::Error::other)?;
+    let (w, h) = PLOT_PANEL_PX;
+    plot::write_figure(
+        &dir.join("error_vs_time.png"),
+        &dir.join("error_vs_time.svg"),
+        &plot_panels(rows, short),
+        w,
+        h,
+    )?;
     Ok(())
+}
+
+/// Errors writing the report's files.
+#[derive(Debug, thiserror::Error)]
+pub enum ReportError {
+    #[error("cannot write {path}: {source}")]
+    Write {
+        path: std::path::PathBuf,
+        source: std::io::Error,
+    },
+    #[error(transparent)]
+    Plot(#[from] measure::MeasureError),
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn row(scene: &str, setting: Change, time_ms: f64, p99_px: f64) -> Row {
+        Row {
+            scene: scene.into(),
+            setting,
+            triangles: 1000,
+            levels_drawn: 9,
+            cpu_ms: 0.5,
+            frame_ms: time_ms,
+            gpu_ms: None,
+            error: ErrorStats {
+                pixels_measured: 100,
+                mean_px: p99_px / 3.0,
+                p99_px,
+                max_px: 2.0 * p99_px,
+                threshold_px: 1.0,
+                error_pixels: 1,
+                error_pixel_share: 0.01,
+                coverage: None,
+            },
+        }
+    }
+
+    #[test]
+    fn settings_are_typed_and_labelled_for_output_only() {
+        let base = ClipmapSettings::default();
+        let grid = settings_grid(&base);
+        let labels: Vec<String> = grid.iter().map(|s| s.change.to_string()).collect();
+        assert_eq!(labels[0], "default");
+        for want in [
+            "n=256",
+            "m=64",
+            "texture=1024",
+            "transform=direct",
+            "overlay=levels",
+        ] {
+            assert!(
+                labels.iter().any(|l| l == want),
+                "{want} missing: {labels:?}"
+            );
+        }
+        for s in &grid {
+            assert_eq!(s.settings, s.change.apply(&base));
+            assert!(s.settings.validate().is_ok());
+            assert_eq!(s.change.overlay_levels(), s.change == Change::OverlayLevels);
+        }
+        let n = grid
+            .iter()
+            .find(|s| s.change == Change::PhiSteps(256))
+            .unwrap();
+        assert_eq!(n.settings.phi_steps, 256);
+        assert_eq!(n.settings.rings_per_level, base.rings_per_level);
+        // The base form is not repeated as a change.
+        assert!(
+            !grid
+                .iter()
+                .any(|s| s.change == Change::Transform(base.transform))
+        );
+    }
+
+    /// A NaN figure (a median of no frames) and an infinite one give valid JSON, as null.
+    #[test]
+    fn json_writes_nan_and_infinity_as_null() {
+        let mut a = row("ground", Change::Default, 4.0, 0.5);
+        a.cpu_ms = f64::NAN;
+        a.error.max_px = f64::INFINITY;
+        let b = row("ground", Change::PhiSteps(256), 3.0, 1.5);
+        let text = json(&[a, b]);
+        let v: serde_json::Value = serde_json::from_str(&text).expect("valid JSON");
+        let rows = v.as_array().unwrap();
+        assert_eq!(rows.len(), 2);
+        assert!(rows[0]["cpu_ms"].is_null() && rows[0]["max_px"].is_null());
+        assert!(rows[0]["gpu_ms"].is_null());
+        assert_eq!(rows[0]["setting"], "default");
+        assert_eq!(rows[1]["setting"], "n=256");
+        assert_eq!(rows[1]["p99_px"], 1.5);
+        assert_eq!(rows[1]["error_pixels_pct"], 1.0);
+        // The JSON has the CSV's columns, by the same names.
+        let header = csv(&[]);
+        let mut columns: Vec<&str> = header.trim().split(',').collect();
+        let mut keys: Vec<&str> = rows[1]
+            .as_object()
+            .unwrap()
+            .keys()
+            .map(|k| k.as_str())
+            .collect();
+        columns.sort();
+        keys.sort();
+        assert_eq!(keys, columns);
+    }
+
+    #[test]
+    fn pareto_names_the_settings_nothing_beats() {
+        let rows = [
+            row("space", Change::Default, 4.0, 0.5),
+            row("space", Change::PhiSteps(256), 3.0, 1.5),
+            row("space", Change::PhiSteps(1024), 9.0, 0.6),
+            row("space", Change::OverlayLevels, 5.0, 0.5),
+        ];
+        let refs: Vec<&Row> = rows.iter().collect();
+        assert_eq!(pareto(&refs), [Change::PhiSteps(256), Change::Default]);
+    }
+
+    /// The report's figure from synthetic rows of two scenes: one panel each, PNG and SVG.
+    #[test]
+    fn writes_the_figure_for_two_scenes() {
+        let mut rows = Vec::new();
+        for (scene, scale) in [("space", 1.0), ("ground", 3.0)] {
+            for (k, s) in settings_grid(&ClipmapSettings::default())
+                .iter()
+                .enumerate()
+            {
+                let t = scale * (2.0 + k as f64 * 0.7);
+                rows.push(row(
+                    scene,
+                    s.change,
+                    t,
+                    2.5 / (1.0 + k as f64 * 0.4) / scale,
+                ));
+            }
+        }
+        let panels = plot_panels(&rows, "test adapter");
+        assert_eq!(panels.len(), 2);
+        assert_eq!(panels[0].points.len(), rows.len() / 2);
+        let dir = tempfile::tempdir().unwrap();
+        let (png, svg) = (dir.path().join("e.png"), dir.path().join("e.svg"));
+        let (w, h) = PLOT_PANEL_PX;
+        plot::write_figure(&png, &svg, &panels, w, h).unwrap();
+        let img = image::open(&png).unwrap();
+        assert_eq!((img.width(), img.height()), (w, 2 * h));
+        assert!(
+            std::fs::read_to_string(&svg)
+                .unwrap()
+                .contains("transform=direct")
+        );
+        if let Ok(keep) = std::env::var("GLOBE_PLOT_EXAMPLE") {
+            std::fs::copy(&png, format!("{keep}-report.png")).unwrap();
+        }
+    }
 }

@@ -472,7 +472,8 @@ fn metric_on_real_renders() {
                 coverage.mismatched()
             );
             if name == "aircraft" {
-                let path = std::env::temp_dir().join(format!("globe-measure-{what}-{name}.png"));
+                let dir = tempfile::tempdir().unwrap();
+                let path = dir.path().join(format!("globe-measure-{what}-{name}.png"));
                 write_heat_map_png(&path, w, h, &rho_image(&frame, &camera, &r.terrain)).unwrap();
                 let png = image::open(&path).unwrap();
                 assert_eq!((png.width(), png.height()), (w, h));

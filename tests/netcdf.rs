@@ -2,7 +2,7 @@
 //! our own (CDF-1 and CDF-2, attributes of every type, record variables), malformed and truncated
 //! headers, and the real ETOPO5 family from Debian's `ferret-datasets` (skipped when absent).
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use globe::dem::netcdf::{AttrValue, NcType, NetcdfFile, NetcdfRaster};
 use globe::dem::{DemError, RasterSource};
@@ -213,13 +213,17 @@ impl Writer {
     }
 }
 
-fn temp_path(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("globe-netcdf-test-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir.join(name)
+/// A fresh temporary file whose name ends in `name`, removed when dropped.
+fn temp_path(name: &str) -> tempfile::TempPath {
+    tempfile::Builder::new()
+        .prefix("globe-netcdf-")
+        .suffix(name)
+        .tempfile()
+        .unwrap()
+        .into_temp_path()
 }
 
-fn write(name: &str, bytes: &[u8]) -> PathBuf {
+fn write(name: &str, bytes: &[u8]) -> tempfile::TempPath {
     let p = temp_path(name);
     std::fs::write(&p, bytes).unwrap();
     p
@@ -698,7 +702,8 @@ fn garbage_headers_never_panic() {
         assert_header_error(&p, &e);
         println!("{what:>22}: {e}");
     }
-    let e = NetcdfFile::open(temp_path("does-not-exist.nc")).unwrap_err();
+    let dir = tempfile::tempdir().unwrap();
+    let e = NetcdfFile::open(dir.path().join("does-not-exist.nc")).unwrap_err();
     assert!(matches!(e, DemError::Io { .. }), "{e}");
 }
 

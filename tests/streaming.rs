@@ -257,9 +257,8 @@ fn corrupt_or_changed_pyramid_files_are_reported_not_fatal() {
     let Terrain::Dem(dem) = Terrain::embedded_earth().unwrap() else {
         unreachable!()
     };
-    let dir = std::env::temp_dir().join(format!("globe-stream-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let path = dir.join("earth.globepyr");
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("earth.globepyr");
     std::fs::copy(dem.pyramid().path(), &path).unwrap();
     let copy = globe::terrain::DemTerrain::open(&path, dem.radius_m()).unwrap();
     // Corrupt the finest level's tile under Lake Garda, in place (same length: no SIGBUS).
@@ -331,5 +330,4 @@ fn corrupt_or_changed_pyramid_files_are_reported_not_fatal() {
         })
         .unwrap_err();
     assert!(err.to_string().contains("grew"), "{err}");
-    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -11,7 +11,7 @@ use clap::Args;
 use globe::dem::embedded::{EmbeddedEarth, grid};
 use globe::dem::raster::{BilinearSampler, open_raster};
 
-use crate::progress::Progress;
+use globe::progress::Progress;
 
 #[derive(Args)]
 pub struct EarthArgs {
@@ -39,7 +39,7 @@ pub fn run(args: &EarthArgs) -> anyhow::Result<()> {
     let node = 1.0 / 12.0;
     let mut sampler = BilinearSampler::new(source.as_ref());
     let mut heights = Vec::with_capacity(g.cols * g.rows);
-    let mut progress = Progress::new("earth", g.rows as u64, "rows");
+    let mut progress = Progress::new("earth", g.rows as u64, Some("rows"));
     for r in 0..g.rows {
         let lat = g.lat_of_row(r as f64);
         for c in 0..g.cols {

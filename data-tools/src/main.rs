@@ -1,7 +1,6 @@
 //! `globe-data`: elevation data tools for globe (see data-tools/README.md).
 
 mod earth;
-mod progress;
 mod pyramid_cmd;
 mod synth;
 

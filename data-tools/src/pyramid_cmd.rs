@@ -7,7 +7,7 @@ use clap::Args;
 use globe::dem::pyramid::{DEFAULT_TILE_SIZE, NanPolicy, Pyramid, PyramidBuilder};
 use globe::dem::raster::open_raster;
 
-use crate::progress::Progress;
+use globe::progress::Progress;
 
 #[derive(Args)]
 pub struct ImportArgs {
@@ -39,8 +39,7 @@ pub fn import(args: &ImportArgs) -> anyhow::Result<()> {
         g.cols,
         g.rows
     );
-    let mut progress = Progress::new("import", g.rows as u64, "rows");
-    let mut done = 0u64;
+    let mut progress = Progress::new("import", g.rows as u64, Some("rows"));
     let policy = if args.reject_nodata {
         NanPolicy::Reject
     } else {
@@ -49,11 +48,7 @@ pub fn import(args: &ImportArgs) -> anyhow::Result<()> {
     let report = PyramidBuilder::new()
         .tile_size(args.tile_size)
         .nan_policy(policy)
-        .on_progress(|p| {
-            let now = p.rows_done as u64;
-            progress.add(now.saturating_sub(done));
-            done = now;
-        })
+        .on_progress(|p| progress.set(p.rows_done as u64))
         .build(source.as_ref(), &args.out)
         .with_context(|| format!("cannot build {}", args.out.display()))?;
     progress.finish();

@@ -14,7 +14,7 @@ use globe::dem::ehdr::{EhdrWriteOptions, write_ehdr};
 use globe::dem::raster::{BilinearSampler, open_raster};
 use globe::dem::{DemError, GeoGrid};
 
-use crate::progress::Progress;
+use globe::progress::Progress;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum Ocean {
@@ -139,7 +139,11 @@ pub fn run(args: &SynthArgs) -> anyhow::Result<()> {
         .map(|t| (t.height_deg as usize * 3600 / args.spacing_arcsec as usize) as u64)
         .sum();
     eprintln!("source: {}", source.describe());
-    let mut progress = Progress::new(format!("synth {} tiles", tiles.len()), total_rows, "rows");
+    let mut progress = Progress::new(
+        format!("synth {} tiles", tiles.len()),
+        total_rows,
+        Some("rows"),
+    );
     let mut bytes = 0u64;
     for tile in &tiles {
         let grid = GeoGrid {

@@ -66,8 +66,8 @@ fn sample_matches_gdallocationinfo_on_gtopo30_tiles() {
     if !available() {
         return;
     }
-    let dir: PathBuf =
-        std::env::temp_dir().join(format!("globe-sample-gdal-{}", std::process::id()));
+    let tmp = tempfile::tempdir().unwrap();
+    let dir: PathBuf = tmp.path().join("tiles");
     let d = dir.to_str().unwrap();
     globe_data(&[
         "synth",
@@ -141,5 +141,4 @@ fn sample_matches_gdallocationinfo_on_gtopo30_tiles() {
             points.len()
         );
     }
-    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -26,7 +26,8 @@ fn synth_writes_gtopo30_tiles_that_match_the_source() {
     if !require(ETOPO5) {
         return;
     }
-    let out = std::env::temp_dir().join(format!("globe-synth-test-{}", std::process::id()));
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("tiles");
     let status = Command::new(env!("CARGO_BIN_EXE_globe-data"))
         .args([
             "synth",
@@ -78,5 +79,4 @@ fn synth_writes_gtopo30_tiles_that_match_the_source() {
             }
         }
     }
-    let _ = std::fs::remove_dir_all(&out);
 }

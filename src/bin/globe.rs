@@ -8,6 +8,7 @@ use anyhow::{Context, bail};
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use globe::clipmap::selection::LevelStatus;
 use globe::clipmap::{ClipmapSettings, TransformForm};
+use globe::progress::Progress;
 use globe::render::offscreen::{COLOR_FORMAT, OffscreenFrame};
 use globe::render::{GpuContext, TerrainRenderer};
 use globe::scenes::{CAMERA_VIEW_NAME, CameraSpec, SCENES};
@@ -36,8 +37,8 @@ enum Command {
     /// Benchmark a scene, a --camera view or the `flight` path headless: per-frame CPU and GPU time,
     /// triangles, levels, streaming counters (median/min/max; `--json` for one JSON object).
     Bench(BenchArgs),
-    /// Run every method and setting over the named scenes and write report.csv, report.md
-    /// and error_vs_time.png: triangles, CPU/GPU time and the per-pixel error ρ.
+    /// Run every method and setting over the named scenes and write report.csv, report.json,
+    /// report.md and error_vs_time.png/.svg: triangles, CPU/GPU time and the per-pixel error ρ.
     Report(ReportArgs),
     /// List the named scenes (the viewer's bookmarks).
     Scenes,
@@ -45,7 +46,7 @@ enum Command {
 
 #[derive(Args)]
 struct ReportArgs {
-    /// Folder to write report.csv, report.md and error_vs_time.png into (created if missing).
+    /// Folder to write the report's files into (created if missing).
     #[arg(long)]
     out: PathBuf,
     /// Scenes to run, comma-separated [default: space,aircraft,ground; none with --camera].
@@ -136,17 +137,19 @@ struct DemArgs {
 
 impl DemArgs {
     fn open(&self) -> anyhow::Result<Terrain> {
-        let mut last_pct = -1i64;
+        // Shown only once an import starts (an open from the cache reports nothing).
+        let mut progress = None;
         let terrain = globe::terrain::open_terrain(&self.dem, |fraction| {
-            let pct = (fraction * 100.0).floor() as i64;
-            if pct != last_pct {
-                last_pct = pct;
-                eprint!("\rimporting {} into the cache: {pct:3} %", self.dem);
-            }
+            progress
+                .get_or_insert_with(|| {
+                    let label = format!("importing {} into the cache", self.dem);
+                    Progress::new(label, 1000, None)
+                })
+                .set_fraction(fraction)
         })
         .with_context(|| format!("cannot open the terrain '{}'", self.dem))?;
-        if last_pct >= 0 {
-            eprintln!();
+        if let Some(p) = progress {
+            p.finish();
         }
         Ok(terrain)
     }
@@ -556,12 +559,12 @@ fn bench(args: &BenchArgs) -> anyhow::Result<ExitCode> {
                 (fps > 0.0).then(|| std::time::Duration::from_secs_f64(1.0 / fps))
             },
         };
-        let run = globe::bench::run(&ctx, &terrain, &options, |done, total| {
-            if done % 10 == 0 || done == total {
-                eprint!("\r{name} (latency {latency} ms): frame {done}/{total}");
-            }
+        let label = format!("{name} (latency {latency} ms)");
+        let mut progress = Progress::new(label, args.frames as u64, Some("frames"));
+        let run = globe::bench::run(&ctx, &terrain, &options, |done, _| {
+            progress.set(done as u64)
         })?;
-        eprintln!();
+        progress.finish();
         if let Some(path) = &args.csv {
             let path = if args.stream.tile_latency_ms.len() > 1 {
                 let stem = path.file_stem().unwrap_or_default().to_string_lossy();
@@ -573,7 +576,7 @@ fn bench(args: &BenchArgs) -> anyhow::Result<ExitCode> {
                 .with_context(|| format!("cannot write {}", path.display()))?;
         }
         if args.json {
-            println!("{}", run.to_json(&[]));
+            println!("{}", run.to_json());
         } else {
             print_bench(&run);
         }
@@ -735,13 +738,19 @@ fn report(args: &ReportArgs) -> anyhow::Result<ExitCode> {
         stream: args.stream.settings()?,
     };
     let started = Instant::now();
-    let rows = globe::report::run(&ctx, &terrain, &options, |line| {
-        eprintln!("{:7.1} s  {line}", started.elapsed().as_secs_f64());
+    let mut progress = None;
+    let rows = globe::report::run(&ctx, &terrain, &options, |step| {
+        progress
+            .get_or_insert_with(|| Progress::new("report", step.total as u64, Some("steps")))
+            .step(step.index as u64, step.message.as_str())
     })?;
+    if let Some(p) = progress {
+        p.finish();
+    }
     globe::report::write(&args.out, &rows, &adapter, &terrain.describe(), &options)
         .with_context(|| format!("cannot write the report into {}", args.out.display()))?;
     eprintln!(
-        "wrote {}/report.csv, report.md, error_vs_time.png ({} rows) in {:.1} s",
+        "wrote {}/report.csv, report.json, report.md, error_vs_time.png and .svg ({} rows) in {:.1} s",
         args.out.display(),
         rows.len(),
         started.elapsed().as_secs_f64()

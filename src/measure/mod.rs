@@ -10,7 +10,7 @@
 //! | --- | --- |
 //! | [`reference`] | [`HeightField`] (the terrain function and its local bounds), the ray caster giving each pixel's true hit or sky |
 //! | [`metric`] | per-pixel δ and ρ from a rendered depth buffer, coverage against the reference, statistics, heat map |
-//! | [`plot`] | the report's error-against-time scatter plot with its Pareto front, as a PNG, with a built-in bitmap font |
+//! | [`plot`] | the report's error-against-time scatter plot with its Pareto front, as PNG and SVG (`plotters`, embedded DejaVu Sans) |
 //!
 //! | frame | convention (as [`crate::geo`]) |
 //! | --- | --- |
@@ -48,4 +48,12 @@ pub enum MeasureError {
         path: std::path::PathBuf,
         source: image::ImageError,
     },
+    #[error("{path}: {source}")]
+    Write {
+        path: std::path::PathBuf,
+        source: std::io::Error,
+    },
+    /// `plotters` failed to draw (its error is generic over the backend, hence boxed).
+    #[error("drawing the plot: {0}")]
+    Plot(Box<dyn std::error::Error + Send + Sync>),
 }

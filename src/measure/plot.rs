@@ -1,7 +1,10 @@
-//! The report's error-against-time scatter plot (issue 5, `error_vs_time.png`): one marker per
-//! setting, time on x and error on y, the Pareto front drawn through the settings nothing beats
-//! on both. Drawn pixel by pixel with a built-in 5×7 bitmap font, so the report needs no font,
-//! plotting or rasterising dependency beyond `image`.
+//! The report's error-against-time scatter plot (`error_vs_time.png` and `.svg`): one marker
+//! per setting, time on x and error on y, the Pareto front drawn through the settings nothing
+//! beats on both. Drawn with `plotters` (bitmap and SVG backends); its text uses DejaVu Sans,
+//! embedded from `assets/fonts/` so that a machine without fonts (CI) renders it the same.
+//! Ours are the Pareto front, the axis ranges and their ticks (decades, with 2 and 5 between
+//! them where there is room, and linear steps on a log axis narrower than one of those), and
+//! where each point's label goes.
 //!
 //! Degenerate inputs still give a readable plot rather than an error:
 //!
@@ -12,9 +15,15 @@
 //! | all points with one x (or y) | the axis spans ±10 % of the value (±1 around 0, half a decade on a log axis) |
 //! | no (finite) points | axes only, spanning 0…1 (1…10 on log axes), with a "no data" note |
 
+use std::ops::Range;
 use std::path::Path;
+use std::sync::Once;
 
-use image::{Rgb, RgbImage};
+use image::RgbImage;
+use plotters::coord::Shift;
+use plotters::coord::ranged1d::{DefaultFormatting, KeyPointHint, Ranged};
+use plotters::prelude::*;
+use plotters::style::{FontStyle, RGBColor, register_font};
 
 use super::MeasureError;
 
@@ -28,7 +37,7 @@ pub struct Point {
     pub y: f64,
 }
 
-/// What to draw around the points, and the image size in pixels.
+/// What to draw around the points.
 #[derive(Clone, Debug, PartialEq)]
 pub struct PlotSpec {
     pub title: String,
@@ -36,8 +45,13 @@ pub struct PlotSpec {
     pub y_label: String,
     pub log_x: bool,
     pub log_y: bool,
-    pub width: u32,
-    pub height: u32,
+}
+
+/// One panel of a figure: its axes and titles, and its points.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Panel {
+    pub spec: PlotSpec,
+    pub points: Vec<Point>,
 }
 
 /// Indices of the non-dominated points, lower x and lower y both better, sorted by x (then y,
@@ -92,167 +106,49 @@ impl Axis {
     }
 }
 
-/// The data → pixel mapping of a plot, exposed so a caller (or a test) can find a point's
-/// marker in the image.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct PlotFrame {
-    /// Pixel columns of the plot area's left and right edges (x = `lo`, x = `hi`).
-    pub left: i32,
-    pub right: i32,
-    /// Pixel rows of the plot area's top and bottom edges (y = `hi`, y = `lo`).
-    pub top: i32,
-    pub bottom: i32,
+/// Marker pixels of a drawn panel (see [`draw_panel`]), for a caller or a test to find them.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Drawn {
+    /// Pixel (column, row) of each point's marker centre in the whole image; None where the
+    /// point was skipped.
+    pub markers: Vec<Option<(i32, i32)>>,
     pub x_axis: Axis,
     pub y_axis: Axis,
 }
 
-impl PlotFrame {
-    /// The frame [`render_plot`] uses for these inputs.
-    pub fn new(spec: &PlotSpec, points: &[Point]) -> Self {
-        Layout::new(spec, points).frame
-    }
+/// The font family every text of the plots uses: DejaVu Sans, registered once.
+const FONT: &str = "sans-serif";
+static FONT_BYTES: &[u8] = include_bytes!("../../assets/fonts/DejaVuSans.ttf");
 
-    /// Pixel coordinates (column, row; integers at pixel centres) of a data point; markers are
-    /// centred on the nearest pixel. None where the point cannot be drawn.
-    pub fn to_pixel(&self, x: f64, y: f64) -> Option<(f64, f64)> {
-        let (tx, ty) = (self.x_axis.fraction(x)?, self.y_axis.fraction(y)?);
-        Some((
-            f64::from(self.left) + tx * f64::from(self.right - self.left),
-            f64::from(self.bottom) - ty * f64::from(self.bottom - self.top),
-        ))
-    }
-
-    fn x_px(&self, x: f64) -> Option<f64> {
-        self.to_pixel(x, self.y_axis.lo).map(|p| p.0)
-    }
-
-    fn y_px(&self, y: f64) -> Option<f64> {
-        self.to_pixel(self.x_axis.lo, y).map(|p| p.1)
-    }
+fn register_embedded_font() {
+    static ONCE: Once = Once::new();
+    ONCE.call_once(|| {
+        // The file is in the repository and parsed by a test: it cannot fail to parse.
+        if register_font(FONT, FontStyle::Normal, FONT_BYTES).is_err() {
+            panic!("assets/fonts/DejaVuSans.ttf is not a font ab_glyph can read");
+        }
+    });
 }
 
-/// Renders the scatter plot: markers coloured and shaped by group, labels beside them, the
-/// Pareto front as a polyline, ticks, titles and a legend.
-pub fn render_plot(spec: &PlotSpec, points: &[Point]) -> RgbImage {
-    let l = Layout::new(spec, points);
-    let f = l.frame;
-    let mut img = RgbImage::from_pixel(spec.width, spec.height, WHITE);
-    let s = l.s as i32;
-    let (plot_w, plot_h) = (f.right - f.left + 1, f.bottom - f.top + 1);
-    let grid = |t: &Tick| if t.major { GRID } else { GRID_MINOR };
-
-    // Grid, then the plot box over it.
-    for t in &l.x_ticks {
-        if let Some(x) = f.x_px(t.value) {
-            fill_rect(&mut img, x.round() as i32, f.top, 1, plot_h, grid(t));
-        }
-    }
-    for t in &l.y_ticks {
-        if let Some(y) = f.y_px(t.value) {
-            fill_rect(&mut img, f.left, y.round() as i32, plot_w, 1, grid(t));
-        }
-    }
-    stroke_rect(&mut img, f.left, f.top, f.right, f.bottom, AXIS);
-
-    // Ticks outside the box, with their labels.
-    let tick_len = |t: &Tick| if t.major { l.tick_len } else { l.tick_len / 2 };
-    for t in &l.x_ticks {
-        let Some(x) = f.x_px(t.value) else { continue };
-        let x = x.round() as i32;
-        fill_rect(&mut img, x, f.bottom + 1, 1, tick_len(t), AXIS);
-        if let Some(label) = &t.label {
-            let w = text_size(label, l.s).0 as i32;
-            let y = f.bottom + 1 + l.tick_len + l.pad;
-            // Kept inside the image: an end label may reach past a narrow margin.
-            let x = (x - w / 2).clamp(0, (spec.width as i32 - w).max(0));
-            draw_text(&mut img, x, y, label, l.s, TEXT);
-        }
-    }
-    for t in &l.y_ticks {
-        let Some(y) = f.y_px(t.value) else { continue };
-        let y = y.round() as i32;
-        fill_rect(&mut img, f.left - tick_len(t), y, tick_len(t), 1, AXIS);
-        if let Some(label) = &t.label {
-            let w = text_size(label, l.s).0 as i32;
-            let x = f.left - l.tick_len - l.pad - w;
-            draw_text(&mut img, x, y - CAP_H as i32 * s / 2, label, l.s, TEXT);
-        }
-    }
-
-    // Titles: x under the tick labels, y turned along the left edge, the plot's on top.
-    let (centre_x, centre_y) = ((f.left + f.right) / 2, (f.top + f.bottom) / 2);
-    let w = text_size(&l.x_title, l.s).0 as i32;
-    let y = f.bottom + 1 + l.tick_len + l.pad + cell_h(l.s) + l.pad;
-    draw_text(&mut img, centre_x - w / 2, y, &l.x_title, l.s, TEXT);
-    let w = text_size(&l.y_title, l.s).0 as i32;
-    draw_text_up(&mut img, l.pad, centre_y + w / 2, &l.y_title, l.s, TEXT);
-    let w = text_size(&spec.title, l.title_s).0 as i32;
-    let x = (spec.width as i32 - w) / 2;
-    draw_text(&mut img, x, l.pad, &spec.title, l.title_s, TEXT);
-
-    if l.valid.is_empty() {
-        let note = "no data";
-        let (w, h) = text_size(note, l.s + 1);
-        let (x, y) = (centre_x - w as i32 / 2, centre_y - h as i32 / 2);
-        draw_text(&mut img, x, y, note, l.s + 1, NOTE);
-    }
-
-    // The front under the markers, so that every marker stays whole; rings over them.
-    let pixel = |i: usize| {
-        let (x, y) = f.to_pixel(points[i].x, points[i].y)?;
-        Some((x.round() as i32, y.round() as i32))
-    };
-    let front: Vec<(i32, i32)> = (pareto_front(points).into_iter())
-        .filter_map(pixel)
-        .collect();
-    for pair in front.windows(2) {
-        let [a, b] = [pair[0], pair[1]].map(|(x, y)| (f64::from(x), f64::from(y)));
-        draw_line(&mut img, a, b, l.front_width, FRONT);
-    }
-    for &i in &l.valid {
-        let Some((x, y)) = pixel(i) else { continue };
-        draw_marker(&mut img, x, y, l.marker_r, l.style(&points[i].group));
-    }
-    for &(x, y) in &front {
-        draw_ring(&mut img, x, y, l.ring_r(), FRONT);
-    }
-    for (i, (x, y)) in l.place_labels(points) {
-        draw_text(&mut img, x, y, &points[i].label, l.label_s, LABEL);
-    }
-
-    l.draw_legend(&mut img);
-    img
-}
-
-/// Renders the plot ([`render_plot`]) and writes it as an RGB PNG.
-pub fn write_plot_png(path: &Path, spec: &PlotSpec, points: &[Point]) -> Result<(), MeasureError> {
-    render_plot(spec, points)
-        .save_with_format(path, image::ImageFormat::Png)
-        .map_err(|source| MeasureError::Image {
-            path: path.to_path_buf(),
-            source,
-        })
-}
-
-const WHITE: Rgb<u8> = Rgb([255, 255, 255]);
-const TEXT: Rgb<u8> = Rgb([30, 30, 30]);
-const LABEL: Rgb<u8> = Rgb([70, 70, 70]);
-const NOTE: Rgb<u8> = Rgb([130, 130, 130]);
-const AXIS: Rgb<u8> = Rgb([40, 40, 40]);
-const GRID: Rgb<u8> = Rgb([218, 218, 218]);
-const GRID_MINOR: Rgb<u8> = Rgb([238, 238, 238]);
+const WHITE_C: RGBColor = RGBColor(255, 255, 255);
+const TEXT: RGBColor = RGBColor(30, 30, 30);
+const LABEL: RGBColor = RGBColor(70, 70, 70);
+const NOTE: RGBColor = RGBColor(130, 130, 130);
+const AXIS: RGBColor = RGBColor(40, 40, 40);
+const GRID: RGBColor = RGBColor(218, 218, 218);
+const GRID_MINOR: RGBColor = RGBColor(240, 240, 240);
 /// Crimson: apart from every group colour.
-const FRONT: Rgb<u8> = Rgb([220, 20, 60]);
+const FRONT: RGBColor = RGBColor(220, 20, 60);
 /// Okabe–Ito colours (distinguishable with the common colour-vision deficiencies), without
 /// vermillion and yellow: too close to the front and too faint on white.
-const PALETTE: [Rgb<u8>; 7] = [
-    Rgb([0, 114, 178]),
-    Rgb([230, 159, 0]),
-    Rgb([0, 158, 115]),
-    Rgb([204, 121, 167]),
-    Rgb([86, 180, 233]),
-    Rgb([110, 110, 110]),
-    Rgb([140, 86, 40]),
+const PALETTE: [RGBColor; 7] = [
+    RGBColor(0, 114, 178),
+    RGBColor(230, 159, 0),
+    RGBColor(0, 158, 115),
+    RGBColor(204, 121, 167),
+    RGBColor(86, 180, 233),
+    RGBColor(110, 110, 110),
+    RGBColor(140, 86, 40),
 ];
 
 /// Marker shapes, cycled apart from the colours so that groups stay apart in grey print.
@@ -275,7 +171,7 @@ const SHAPES: [Shape; 5] = [
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 struct Style {
-    colour: Rgb<u8>,
+    colour: RGBColor,
     shape: Shape,
 }
 
@@ -287,301 +183,101 @@ fn group_style(index: usize) -> Style {
     }
 }
 
+/// The outline of a marker of radius `r` around (0, 0), in pixels (y down).
+fn marker_outline(shape: Shape, r: f64) -> Vec<(i32, i32)> {
+    let at = |pts: &[(f64, f64)]| -> Vec<(i32, i32)> {
+        (pts.iter())
+            .map(|&(x, y)| ((x * r).round() as i32, (y * r).round() as i32))
+            .collect()
+    };
+    match shape {
+        Shape::Circle => {
+            let pts: Vec<(f64, f64)> = (0..24)
+                .map(|k| f64::from(k) * std::f64::consts::TAU / 24.0)
+                .map(|a| (a.cos(), a.sin()))
+                .collect();
+            at(&pts)
+        }
+        Shape::Square => at(&[(-0.85, -0.85), (0.85, -0.85), (0.85, 0.85), (-0.85, 0.85)]),
+        Shape::Diamond => at(&[(0.0, -1.2), (1.2, 0.0), (0.0, 1.2), (-1.2, 0.0)]),
+        Shape::TriangleUp => at(&[(0.0, -1.15), (1.05, 0.75), (-1.05, 0.75)]),
+        Shape::TriangleDown => at(&[(0.0, 1.15), (1.05, -0.75), (-1.05, -0.75)]),
+    }
+}
+
+/// A filled marker at `at` (pixels within `area`), with a darker outline so that light colours
+/// hold on white and overlapping markers stay apart.
+fn draw_marker<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    at: (i32, i32),
+    r: f64,
+    style: Style,
+) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
+    let RGBColor(red, green, blue) = style.colour;
+    let outline = RGBColor(red / 2 + 10, green / 2 + 10, blue / 2 + 10);
+    let mut edge = marker_outline(style.shape, r);
+    area.draw(&(EmptyElement::at(at) + Polygon::new(edge.clone(), style.colour.filled())))?;
+    edge.push(edge[0]);
+    area.draw(&(EmptyElement::at(at) + PathElement::new(edge, outline.stroke_width(2))))
+}
+
+/// A tick: its value, and its label (labelled ticks are the bold grid lines).
+#[derive(Clone, Debug, PartialEq)]
 struct Tick {
     value: f64,
-    major: bool,
     label: Option<String>,
 }
 
-/// Everything placed before drawing: sizes scale with the image so that a large plot stays
-/// legible.
-struct Layout {
-    frame: PlotFrame,
-    /// Text scale of ticks, point labels, axis titles and legend; the title's is one larger.
-    s: u32,
-    label_s: u32,
-    title_s: u32,
-    pad: i32,
-    tick_len: i32,
-    marker_r: f64,
-    front_width: f64,
-    x_ticks: Vec<Tick>,
-    y_ticks: Vec<Tick>,
-    x_title: String,
-    y_title: String,
-    groups: Vec<String>,
-    /// Indices of the drawable points (finite coordinates).
-    valid: Vec<usize>,
-    skipped: usize,
-    /// Top-left corner and width of the legend box, right of the plot area.
-    legend: (i32, i32, i32),
+/// An axis with its ticks chosen: the coordinate `plotters` maps through. Its bold key points
+/// are the labelled ticks, its light ones every tick.
+#[derive(Clone, Debug)]
+struct TickedAxis {
+    axis: Axis,
+    ticks: Vec<Tick>,
 }
 
-impl Layout {
-    fn new(spec: &PlotSpec, points: &[Point]) -> Self {
-        let (w, h) = (spec.width as i32, spec.height as i32);
-        let s = (spec.width.min(spec.height) / 280).clamp(1, 6);
-        let (label_s, title_s) = (s, s + 1);
-        let pad = 4 * s as i32;
-        let tick_len = 3 * s as i32;
-
-        let valid: Vec<usize> = (0..points.len())
-            .filter(|&i| points[i].x.is_finite() && points[i].y.is_finite())
-            .collect();
-        let xs: Vec<f64> = valid.iter().map(|&i| points[i].x).collect();
-        let ys: Vec<f64> = valid.iter().map(|&i| points[i].y).collect();
-        let (x_axis, x_fell_back) = resolve_axis(&xs, spec.log_x);
-        let (y_axis, y_fell_back) = resolve_axis(&ys, spec.log_y);
-        let fallback_note = |title: &str, fell_back| {
-            let note = if fell_back {
-                " (linear: values <= 0)"
-            } else {
-                ""
-            };
-            format!("{title}{note}").trim_start().to_string()
-        };
-        let x_title = fallback_note(&spec.x_label, x_fell_back);
-        let y_title = fallback_note(&spec.y_label, y_fell_back);
-
-        let mut groups: Vec<String> = Vec::new();
-        for &i in &valid {
-            if !groups.contains(&points[i].group) {
-                groups.push(points[i].group.clone());
-            }
+impl TickedAxis {
+    fn new(axis: Axis, target: f64) -> Self {
+        Self {
+            ticks: axis_ticks(&axis, target),
+            axis,
         }
+    }
 
-        let marker_r = 2.0 + 2.0 * f64::from(s);
-        let mut layout = Layout {
-            frame: PlotFrame {
-                left: 0,
-                right: 0,
-                top: 0,
-                bottom: 0,
-                x_axis,
-                y_axis,
-            },
-            s,
-            label_s,
-            title_s,
-            pad,
-            tick_len,
-            marker_r,
-            front_width: 1.0 + f64::from(s),
-            x_ticks: Vec::new(),
-            y_ticks: Vec::new(),
-            x_title,
-            y_title,
-            groups,
-            skipped: points.len() - valid.len(),
-            valid,
-            legend: (0, 0, 0),
-        };
+    fn label(&self, v: f64) -> String {
+        (self.ticks.iter())
+            .filter(|t| t.label.is_some())
+            .min_by(|a, b| (a.value - v).abs().total_cmp(&(b.value - v).abs()))
+            .and_then(|t| t.label.clone())
+            .unwrap_or_default()
+    }
+}
 
-        // Margins outward in: title on top; tick labels and x title below; y title and tick
-        // labels left; the legend right. The y ticks depend on the height only, so their
-        // labels' width is known before the left margin is.
-        let title_h = if spec.title.is_empty() {
-            0
+impl Ranged for TickedAxis {
+    type FormatOption = DefaultFormatting;
+    type ValueType = f64;
+
+    fn map(&self, value: &f64, limit: (i32, i32)) -> i32 {
+        let t = self.axis.fraction(*value).unwrap_or(f64::NAN);
+        let px = f64::from(limit.0) + t * f64::from(limit.1 - limit.0);
+        // Off-axis values (never drawn: the caller skips them) land on the low end.
+        if px.is_finite() {
+            px.round().clamp(-1e6, 1e6) as i32
         } else {
-            cell_h(title_s) + pad
-        };
-        let top = pad + title_h + pad;
-        let x_title_h = if layout.x_title.is_empty() {
-            0
-        } else {
-            cell_h(s) + pad
-        };
-        let bottom = h - (tick_len + pad + cell_h(s) + pad + x_title_h + pad) - 1;
-        let mut y_ticks = axis_ticks(&y_axis, f64::from(bottom - top), s);
-        let y_px = |v: f64| {
-            let t = y_axis.fraction(v).unwrap_or(0.0);
-            f64::from(bottom) - t * f64::from(bottom - top)
-        };
-        let gap = 2.0 * f64::from(s);
-        thin_labels(&mut y_ticks, y_px, |_| f64::from(cell_h(s)) + gap);
-        let y_label_w = (y_ticks.iter())
-            .filter_map(|t| t.label.as_deref())
-            .map(|l| text_size(l, s).0 as i32)
-            .max()
-            .unwrap_or(0);
-        let y_title_w = if layout.y_title.is_empty() {
-            0
-        } else {
-            cell_h(s) + pad
-        };
-        let left = pad + y_title_w + y_label_w + pad + tick_len;
-        let legend_w = layout.legend_width();
-        let right = w - 1 - pad - if legend_w > 0 { legend_w + 2 * pad } else { 0 };
-        let right = right.max(left + 1);
-        let bottom = bottom.max(top + 1);
-
-        let mut x_ticks = axis_ticks(&x_axis, f64::from(right - left), s);
-        let x_px = |v: f64| {
-            let t = x_axis.fraction(v).unwrap_or(0.0);
-            f64::from(left) + t * f64::from(right - left)
-        };
-        let sep = f64::from(2 * GLYPH_ADVANCE * s);
-        thin_labels(&mut x_ticks, x_px, |l| f64::from(text_size(l, s).0) + sep);
-
-        layout.frame = PlotFrame {
-            left,
-            right,
-            top,
-            bottom,
-            x_axis,
-            y_axis,
-        };
-        layout.x_ticks = x_ticks;
-        layout.y_ticks = y_ticks;
-        layout.legend = (right + 2 * pad, top, legend_w);
-        layout
-    }
-
-    fn style(&self, group: &str) -> Style {
-        group_style(self.groups.iter().position(|g| g == group).unwrap_or(0))
-    }
-
-    /// Legend rows: each group, then the front; none without data.
-    fn legend_entries(&self) -> Vec<String> {
-        if self.valid.is_empty() {
-            return Vec::new();
-        }
-        let mut entries: Vec<String> = (self.groups.iter())
-            .map(|g| {
-                if g.is_empty() {
-                    "(no group)".into()
-                } else {
-                    g.clone()
-                }
-            })
-            .collect();
-        entries.push("Pareto front".into());
-        entries
-    }
-
-    fn skipped_note(&self) -> Option<String> {
-        match self.skipped {
-            0 => None,
-            1 => Some("1 point skipped (not finite)".into()),
-            n => Some(format!("{n} points skipped (not finite)")),
+            limit.0
         }
     }
 
-    /// Width of the symbol column: a marker, or a stretch of the front with its ring.
-    fn legend_symbol_w(&self) -> i32 {
-        (4.0 * self.marker_r) as i32 + 2 * self.pad
+    fn key_points<Hint: KeyPointHint>(&self, hint: Hint) -> Vec<f64> {
+        let light = hint.weight().allow_light_points();
+        (self.ticks.iter())
+            .filter(|t| light || t.label.is_some())
+            .map(|t| t.value)
+            .collect()
     }
 
-    /// Radius of the ring around a point on the front.
-    fn ring_r(&self) -> f64 {
-        self.marker_r + 2.0
-    }
-
-    fn legend_row_h(&self) -> i32 {
-        cell_h(self.s).max((2.0 * self.marker_r) as i32 + 4) + self.pad
-    }
-
-    fn legend_width(&self) -> i32 {
-        let entries = self.legend_entries();
-        let text_w = (entries.iter().chain(self.skipped_note().as_ref()))
-            .map(|e| text_size(e, self.s).0 as i32)
-            .max();
-        match text_w {
-            Some(t) => self.pad + self.legend_symbol_w() + self.pad + t + self.pad,
-            None => 0,
-        }
-    }
-
-    fn draw_legend(&self, img: &mut RgbImage) {
-        let entries = self.legend_entries();
-        let (x0, y0, w) = self.legend;
-        let row_h = self.legend_row_h();
-        let text_x = x0 + self.pad + self.legend_symbol_w() + self.pad;
-        let sym_centre = x0 + self.pad + self.legend_symbol_w() / 2;
-        for (row, entry) in entries.iter().enumerate() {
-            let cy = y0 + self.pad + row as i32 * row_h + row_h / 2;
-            if row < self.groups.len() {
-                draw_marker(img, sym_centre, cy, self.marker_r, group_style(row));
-            } else {
-                let half = f64::from(self.legend_symbol_w() / 2 - self.pad / 2);
-                let c = f64::from(sym_centre);
-                let a = (c - half, f64::from(cy));
-                draw_line(img, a, (c + half, f64::from(cy)), self.front_width, FRONT);
-                draw_ring(img, sym_centre, cy, self.ring_r(), FRONT);
-            }
-            let text_y = cy - (CAP_H * self.s) as i32 / 2;
-            draw_text(img, text_x, text_y, entry, self.s, TEXT);
-        }
-        if !entries.is_empty() {
-            let y1 = y0 + 2 * self.pad + entries.len() as i32 * row_h;
-            stroke_rect(img, x0, y0, x0 + w - 1, y1, GRID);
-            if let Some(note) = self.skipped_note() {
-                draw_text(img, x0, y1 + self.pad, &note, self.s, NOTE);
-            }
-        } else if let Some(note) = self.skipped_note() {
-            draw_text(img, x0, y0, &note, self.s, NOTE);
-        }
-    }
-
-    /// Top-left corners of the point labels, greedily: each takes the first of six places
-    /// around its marker that overlaps no marker or earlier label and stays in the plot area,
-    /// else the place that overlaps least.
-    fn place_labels(&self, points: &[Point]) -> Vec<(usize, (i32, i32))> {
-        let f = self.frame;
-        let centre = |i: usize| {
-            let (x, y) = f.to_pixel(points[i].x, points[i].y)?;
-            Some((x.round() as i32, y.round() as i32))
-        };
-        let r = self.ring_r().ceil() as i32 + 1;
-        let mut taken: Vec<Rect> = (self.valid.iter())
-            .filter_map(|&i| centre(i))
-            .map(|(x, y)| Rect::new(x - r, y - r, 2 * r + 1, 2 * r + 1))
-            .collect();
-        // The front's segments, as small squares every two pixels.
-        let front: Vec<(i32, i32)> = (pareto_front(points).into_iter())
-            .filter_map(centre)
-            .collect();
-        let half = (self.front_width / 2.0).ceil() as i32 + 1;
-        for pair in front.windows(2) {
-            let ((x0, y0), (x1, y1)) = (pair[0], pair[1]);
-            let steps = ((x1 - x0).abs().max((y1 - y0).abs()) / 2).max(1);
-            for k in 0..=steps {
-                let x = x0 + (x1 - x0) * k / steps;
-                let y = y0 + (y1 - y0) * k / steps;
-                taken.push(Rect::new(x - half, y - half, 2 * half + 1, 2 * half + 1));
-            }
-        }
-        let area = Rect::new(f.left, f.top, f.right - f.left + 1, f.bottom - f.top + 1);
-        let mut placed = Vec::new();
-        for &i in &self.valid {
-            let (Some((x, y)), false) = (centre(i), points[i].label.is_empty()) else {
-                continue;
-            };
-            let (w, _) = text_size(&points[i].label, self.label_s);
-            let (w, h) = (w as i32, (CAP_H * self.label_s) as i32);
-            let g = r + 2 * self.label_s as i32;
-            let candidates = [
-                (x + g, y - h / 2),
-                (x - g - w, y - h / 2),
-                (x + g / 2, y - g - h),
-                (x + g / 2, y + g),
-                (x - g / 2 - w, y - g - h),
-                (x - g / 2 - w, y + g),
-            ];
-            let cost = |&(cx, cy): &(i32, i32)| {
-                let rect = Rect::new(cx, cy, w, h);
-                let overlap: i32 = taken.iter().map(|t| rect.overlap(t)).sum();
-                let outside = w * h - rect.overlap(&area);
-                overlap + 4 * outside
-            };
-            let best = (candidates.iter().enumerate())
-                .min_by_key(|&(k, c)| (cost(c), k))
-                .map(|(_, c)| *c)
-                .expect("six candidates");
-            taken.push(Rect::new(best.0, best.1, w, h));
-            placed.push((i, best));
-        }
-        placed
+    fn range(&self) -> Range<f64> {
+        self.axis.lo..self.axis.hi
     }
 }
 
@@ -614,7 +310,7 @@ fn resolve_axis(values: &[f64], log: bool) -> (Axis, bool) {
     let (min, max) = if log {
         (-307.0, 308.0)
     } else {
-        (f64::MIN, f64::MAX)
+        (f64::MIN / 4.0, f64::MAX / 4.0)
     };
     (lo, hi) = (lo.max(min), hi.min(max));
     let axis = Axis {
@@ -638,12 +334,12 @@ fn nice_step(raw: f64) -> f64 {
     m * mag
 }
 
-/// Ticks of an axis `len_px` long: on a linear axis labelled 1-2-5 steps about every 50·s
-/// pixels; on a log axis decades, with minor ticks at 2 and 5 where a decade is wide enough,
-/// labelled too when fewer than three decades show, and only every 2nd, 5th… decade over
-/// very many. A log axis narrower than a 1-2-5 step gets linear steps.
-fn axis_ticks(axis: &Axis, len_px: f64, s: u32) -> Vec<Tick> {
-    let target = (len_px / (50.0 * f64::from(s))).clamp(2.0, 10.0);
+/// About `target` ticks: on a linear axis labelled 1-2-5 steps; on a log axis decades, with
+/// ticks at 2 and 5 between them where fewer than `target` decades show, labelled too when
+/// fewer than three do, at every 1…9 × 10^k within less than a decade, and only every 2nd,
+/// 5th… decade over very many. A log axis narrower than a 1-2-5 step gets linear steps.
+fn axis_ticks(axis: &Axis, target: f64) -> Vec<Tick> {
+    let target = target.clamp(2.0, 12.0);
     if !axis.log {
         return linear_ticks(axis.lo, axis.hi, target);
     }
@@ -651,7 +347,12 @@ fn axis_ticks(axis: &Axis, len_px: f64, s: u32) -> Vec<Tick> {
     if !(a.is_finite() && b.is_finite() && b > a) {
         return Vec::new();
     }
-    let minors = len_px / (b - a) >= 40.0;
+    let minors = b - a <= target;
+    let mantissas: &[i32] = if b - a < 1.0 {
+        &[1, 2, 3, 4, 5, 6, 7, 8, 9]
+    } else {
+        &[1, 2, 5]
+    };
     // Over many decades, every 2nd, 5th, 10th… decade, so that ticks stay apart.
     let every = if b - a <= 1.5 * target {
         1
@@ -663,29 +364,33 @@ fn axis_ticks(axis: &Axis, len_px: f64, s: u32) -> Vec<Tick> {
         if k.rem_euclid(every) != 0 {
             continue;
         }
-        for m in [1, 2, 5] {
+        for &m in mantissas {
             let v = f64::from(m) * 10f64.powi(k);
             let lv = v.log10();
             if (m != 1 && !minors) || lv < a - 1e-9 || lv > b + 1e-9 {
                 continue;
             }
-            let label = Some(log_label(m, k));
             ticks.push(Tick {
                 value: v,
-                major: m == 1,
-                label,
+                label: Some(log_label(m, k)),
             });
         }
     }
     if ticks.len() < 2 {
         return linear_ticks(axis.lo, axis.hi, target);
     }
-    if ticks.iter().filter(|t| t.major).count() >= 3 {
-        for t in ticks.iter_mut().filter(|t| !t.major) {
+    let decades = ticks.iter().filter(|t| is_decade(t.value)).count();
+    if decades >= 3 {
+        for t in ticks.iter_mut().filter(|t| !is_decade(t.value)) {
             t.label = None;
         }
     }
     ticks
+}
+
+fn is_decade(v: f64) -> bool {
+    let l = v.log10();
+    (l - l.round()).abs() < 1e-9
 }
 
 fn linear_ticks(lo: f64, hi: f64, target: f64) -> Vec<Tick> {
@@ -711,7 +416,6 @@ fn linear_ticks(lo: f64, hi: f64, target: f64) -> Vec<Tick> {
             };
             Tick {
                 value: v,
-                major: true,
                 label: Some(label),
             }
         })
@@ -724,24 +428,6 @@ fn log_label(m: i32, k: i32) -> String {
         0..=5 => (i64::from(m) * 10i64.pow(k as u32)).to_string(),
         -4..=-1 => format!("{:.*}", (-k) as usize, f64::from(m) * 10f64.powi(k)),
         _ => format!("{m}e{k}"),
-    }
-}
-
-/// Drops labels that would overlap an earlier kept one along the axis, majors kept first.
-fn thin_labels(ticks: &mut [Tick], centre: impl Fn(f64) -> f64, extent: impl Fn(&str) -> f64) {
-    let mut order: Vec<usize> = (0..ticks.len())
-        .filter(|&i| ticks[i].label.is_some())
-        .collect();
-    order.sort_by_key(|&i| !ticks[i].major);
-    let mut kept: Vec<(f64, f64)> = Vec::new();
-    for i in order {
-        let c = centre(ticks[i].value);
-        let e = extent(ticks[i].label.as_deref().unwrap_or_default()) / 2.0;
-        if kept.iter().any(|&(a, b)| c - e < b && c + e > a) {
-            ticks[i].label = None;
-        } else {
-            kept.push((c - e, c + e));
-        }
     }
 }
 
@@ -765,301 +451,318 @@ impl Rect {
     }
 }
 
-fn put(img: &mut RgbImage, x: i32, y: i32, c: Rgb<u8>) {
-    if x >= 0 && y >= 0 && (x as u32) < img.width() && (y as u32) < img.height() {
-        img.put_pixel(x as u32, y as u32, c);
-    }
-}
-
-fn fill_rect(img: &mut RgbImage, x: i32, y: i32, w: i32, h: i32, c: Rgb<u8>) {
-    for yy in y..y + h {
-        for xx in x..x + w {
-            put(img, xx, yy, c);
+/// Top-left corners of the point labels, greedily: each takes the first of six places around
+/// its marker that overlaps no marker, front segment or earlier label and stays in `area`,
+/// else the place that overlaps least. `sizes` are the labels' pixel sizes.
+fn place_labels(
+    centres: &[Option<(i32, i32)>],
+    front: &[(i32, i32)],
+    sizes: &[(i32, i32)],
+    clearance: i32,
+    area: Rect,
+) -> Vec<Option<(i32, i32)>> {
+    let r = clearance;
+    let mut taken: Vec<Rect> = (centres.iter().flatten())
+        .map(|&(x, y)| Rect::new(x - r, y - r, 2 * r + 1, 2 * r + 1))
+        .collect();
+    // The front's segments, as small squares every two pixels.
+    for pair in front.windows(2) {
+        let ((x0, y0), (x1, y1)) = (pair[0], pair[1]);
+        let steps = ((x1 - x0).abs().max((y1 - y0).abs()) / 2).max(1);
+        for k in 0..=steps {
+            let x = x0 + (x1 - x0) * k / steps;
+            let y = y0 + (y1 - y0) * k / steps;
+            taken.push(Rect::new(x - 2, y - 2, 5, 5));
         }
     }
-}
-
-/// One-pixel outline through the corners (inclusive).
-fn stroke_rect(img: &mut RgbImage, x0: i32, y0: i32, x1: i32, y1: i32, c: Rgb<u8>) {
-    fill_rect(img, x0, y0, x1 - x0 + 1, 1, c);
-    fill_rect(img, x0, y1, x1 - x0 + 1, 1, c);
-    fill_rect(img, x0, y0, 1, y1 - y0 + 1, c);
-    fill_rect(img, x1, y0, 1, y1 - y0 + 1, c);
-}
-
-/// A line `width` pixels thick, stamped as discs every half pixel: simple, and thick lines
-/// need no joins.
-fn draw_line(img: &mut RgbImage, a: (f64, f64), b: (f64, f64), width: f64, c: Rgb<u8>) {
-    let len = (b.0 - a.0).hypot(b.1 - a.1);
-    if !len.is_finite() {
-        return;
+    let mut placed = Vec::with_capacity(centres.len());
+    for (c, &(w, h)) in centres.iter().zip(sizes) {
+        let Some((x, y)) = *c else {
+            placed.push(None);
+            continue;
+        };
+        let g = r + 5;
+        let candidates = [
+            (x + g, y - h / 2),
+            (x - g - w, y - h / 2),
+            (x + g / 2, y - g - h),
+            (x + g / 2, y + g),
+            (x - g / 2 - w, y - g - h),
+            (x - g / 2 - w, y + g),
+        ];
+        let cost = |&(cx, cy): &(i32, i32)| {
+            let rect = Rect::new(cx, cy, w, h);
+            let overlap: i32 = taken.iter().map(|t| rect.overlap(t)).sum();
+            let outside = w * h - rect.overlap(&area);
+            overlap + 4 * outside
+        };
+        let best = (candidates.iter().enumerate())
+            .min_by_key(|&(k, c)| (cost(c), k))
+            .map(|(_, c)| *c)
+            .expect("six candidates");
+        taken.push(Rect::new(best.0, best.1, w, h));
+        placed.push(Some(best));
     }
-    let steps = (2.0 * len).ceil().max(1.0) as i32;
-    let r = width / 2.0;
-    let ri = r.ceil() as i32;
-    for i in 0..=steps {
-        let t = f64::from(i) / f64::from(steps);
-        let (x, y) = (a.0 + t * (b.0 - a.0), a.1 + t * (b.1 - a.1));
-        let (cx, cy) = (x.round() as i32, y.round() as i32);
-        for dy in -ri..=ri {
-            for dx in -ri..=ri {
-                if f64::from(dx * dx + dy * dy) <= r * r {
-                    put(img, cx + dx, cy + dy, c);
-                }
-            }
+    placed
+}
+
+type DrawResult<T, DB> = Result<T, DrawingAreaErrorKind<<DB as DrawingBackend>::ErrorType>>;
+
+/// Draws one panel into `area`: the chart (grid, log or linear axes, titles), markers coloured
+/// and shaped by group with their labels, the Pareto front as a line with rings on its points,
+/// and the legend right of the chart. Text sizes follow the panel's size.
+pub fn draw_panel<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    spec: &PlotSpec,
+    points: &[Point],
+) -> DrawResult<Drawn, DB> {
+    register_embedded_font();
+    let (w, h) = area.dim_in_pixel();
+    // 15 px text on a 1100 × 620 panel.
+    let unit = f64::from(w.min(2 * h)).max(200.0) / 1100.0;
+    let px = |v: f64| (v * unit).round().max(1.0) as i32;
+    let font = |size: f64| (FONT, size * unit).into_font();
+    let text = font(15.0).color(&TEXT);
+    let label_text = font(13.0).color(&LABEL);
+
+    let valid: Vec<usize> = (0..points.len())
+        .filter(|&i| points[i].x.is_finite() && points[i].y.is_finite())
+        .collect();
+    let skipped = points.len() - valid.len();
+    let xs: Vec<f64> = valid.iter().map(|&i| points[i].x).collect();
+    let ys: Vec<f64> = valid.iter().map(|&i| points[i].y).collect();
+    let (x_axis, x_fell_back) = resolve_axis(&xs, spec.log_x);
+    let (y_axis, y_fell_back) = resolve_axis(&ys, spec.log_y);
+    let title_of = |t: &str, fell_back: bool| match fell_back {
+        true => format!("{t} (linear: values <= 0)")
+            .trim_start()
+            .to_string(),
+        false => t.to_string(),
+    };
+
+    let mut groups: Vec<&str> = Vec::new();
+    for &i in &valid {
+        if !groups.contains(&points[i].group.as_str()) {
+            groups.push(&points[i].group);
         }
     }
-}
-
-fn shape_contains(shape: Shape, dx: f64, dy: f64, r: f64) -> bool {
-    let triangle = |dy: f64| dy >= -r && dy <= 0.75 * r && dx.abs() <= 0.62 * (dy + r);
-    match shape {
-        Shape::Circle => dx * dx + dy * dy <= r * r,
-        Shape::Square => dx.abs().max(dy.abs()) <= 0.8 * r,
-        Shape::Diamond => dx.abs() + dy.abs() <= 1.15 * r,
-        Shape::TriangleUp => triangle(dy),
-        Shape::TriangleDown => triangle(-dy),
+    let mut entries: Vec<String> = (groups.iter())
+        .map(|g| match g.is_empty() {
+            true => "(no group)".to_string(),
+            false => g.to_string(),
+        })
+        .collect();
+    if !valid.is_empty() {
+        entries.push("Pareto front".into());
     }
-}
+    let skipped_note = match skipped {
+        0 => None,
+        1 => Some("1 point skipped (not finite)".to_string()),
+        n => Some(format!("{n} points skipped (not finite)")),
+    };
 
-/// A filled marker of radius `r` centred on pixel (cx, cy), with a darker outline so that
-/// light colours hold on white and overlapping markers stay apart.
-fn draw_marker(img: &mut RgbImage, cx: i32, cy: i32, r: f64, style: Style) {
-    let Rgb([red, green, blue]) = style.colour;
-    let outline = Rgb([red / 2 + 10, green / 2 + 10, blue / 2 + 10]);
-    let ri = r.ceil() as i32 + 1;
-    for dy in -ri..=ri {
-        for dx in -ri..=ri {
-            let (fx, fy) = (f64::from(dx), f64::from(dy));
-            if shape_contains(style.shape, fx, fy, r) {
-                let inner = shape_contains(style.shape, fx, fy, r - 1.5);
-                put(
-                    img,
-                    cx + dx,
-                    cy + dy,
-                    if inner { style.colour } else { outline },
-                );
-            }
+    // The legend's column right of the chart, as wide as its longest line.
+    let marker_r = 6.0 * unit;
+    let symbol_w = px(36.0);
+    let pad = px(8.0);
+    let mut legend_text_w = 0;
+    for e in entries.iter().chain(skipped_note.as_ref()) {
+        legend_text_w = legend_text_w.max(area.estimate_text_size(e, &text)?.0 as i32);
+    }
+    let legend_w = match legend_text_w {
+        0 => 0,
+        t => 4 * pad + symbol_w + t,
+    };
+    let chart_w = (w as i32 - legend_w).max(w as i32 / 2) as u32;
+    let (chart_area, legend_area) = area.split_horizontally(chart_w);
+
+    let x = TickedAxis::new(x_axis, f64::from(chart_w) / (110.0 * unit));
+    let y = TickedAxis::new(y_axis, f64::from(h) / (70.0 * unit));
+    let mut chart = ChartBuilder::on(&chart_area)
+        .caption(&spec.title, font(20.0).color(&TEXT))
+        .margin(px(10.0))
+        .x_label_area_size(px(52.0))
+        .y_label_area_size(px(74.0))
+        .build_cartesian_2d(x.clone(), y.clone())?;
+    let (x_fmt, y_fmt) = (|v: &f64| x.label(*v), |v: &f64| y.label(*v));
+    chart
+        .configure_mesh()
+        .bold_line_style(GRID.stroke_width(1))
+        .light_line_style(GRID_MINOR.stroke_width(1))
+        .axis_style(AXIS.stroke_width(1))
+        .label_style(text.clone())
+        .axis_desc_style(text.clone())
+        .x_desc(title_of(&spec.x_label, x_fell_back))
+        .y_desc(title_of(&spec.y_label, y_fell_back))
+        .x_label_formatter(&x_fmt)
+        .y_label_formatter(&y_fmt)
+        .x_max_light_lines(12)
+        .y_max_light_lines(12)
+        .draw()?;
+
+    let markers: Vec<Option<(i32, i32)>> = (0..points.len())
+        .map(|i| {
+            let q = &points[i];
+            let drawable = valid.contains(&i) && x_axis.fraction(q.x).is_some();
+            (drawable && y_axis.fraction(q.y).is_some()).then(|| chart.backend_coord(&(q.x, q.y)))
+        })
+        .collect();
+    let front: Vec<(i32, i32)> = (pareto_front(points).into_iter())
+        .filter_map(|i| markers[i])
+        .collect();
+    // Everything from here is drawn in pixels of the panel.
+    let (ox, oy) = area.get_base_pixel();
+    let local = |(x, y): (i32, i32)| (x - ox, y - oy);
+    let front_style = FRONT.stroke_width(px(3.0) as u32);
+    let ring_r = marker_r + 3.0 * unit;
+    let ring = |c: (i32, i32)| Circle::new(c, ring_r.round() as i32, FRONT.stroke_width(2));
+
+    // The front under the markers, so that every marker stays whole; rings over them.
+    area.draw(&PathElement::new(
+        front.iter().map(|&c| local(c)).collect::<Vec<_>>(),
+        front_style,
+    ))?;
+    let style_of = |g: &str| group_style(groups.iter().position(|x| *x == g).unwrap_or(0));
+    for (i, m) in markers.iter().enumerate() {
+        if let Some(c) = *m {
+            draw_marker(area, local(c), marker_r, style_of(&points[i].group))?;
         }
     }
-}
-
-/// The ring marking a point on the Pareto front.
-fn draw_ring(img: &mut RgbImage, cx: i32, cy: i32, r: f64, c: Rgb<u8>) {
-    let ri = r.ceil() as i32 + 1;
-    for dy in -ri..=ri {
-        for dx in -ri..=ri {
-            let d = f64::from(dx * dx + dy * dy).sqrt();
-            if (r - 0.75..=r + 0.75).contains(&d) {
-                put(img, cx + dx, cy + dy, c);
-            }
+    for &c in &front {
+        area.draw(&ring(local(c)))?;
+    }
+    let (xr, yr) = chart.plotting_area().get_pixel_range();
+    let plot_rect = Rect::new(xr.start, yr.start, xr.end - xr.start, yr.end - yr.start);
+    let mut sizes = Vec::with_capacity(points.len());
+    for (q, m) in points.iter().zip(&markers) {
+        let (lw, lh) = match (m, q.label.is_empty()) {
+            (Some(_), false) => area.estimate_text_size(&q.label, &label_text)?,
+            _ => (0, 0),
+        };
+        sizes.push((lw as i32, lh as i32));
+    }
+    let clearance = ring_r.ceil() as i32 + 1;
+    let labels = place_labels(&markers, &front, &sizes, clearance, plot_rect);
+    for (q, at) in points.iter().zip(labels) {
+        if let (Some(at), false) = (at, q.label.is_empty()) {
+            area.draw(&Text::new(q.label.clone(), local(at), label_text.clone()))?;
         }
     }
-}
-
-// The bitmap font: 5 pixels wide, 7 above the baseline and 2 below for descenders.
-
-const GLYPH_W: u32 = 5;
-/// Glyph width plus one column of spacing.
-const GLYPH_ADVANCE: u32 = GLYPH_W + 1;
-/// Rows from the top of a cell to the baseline (capitals and digits fill them).
-const CAP_H: u32 = 7;
-/// Rows of a cell, descenders included.
-const CELL_H: u32 = 9;
-
-/// Cell height of text at `scale`, in pixels.
-fn cell_h(scale: u32) -> i32 {
-    (CELL_H * scale) as i32
-}
-
-#[derive(Clone, Copy)]
-struct Glyph {
-    ch: char,
-    /// Rows from the top of the cell, bit 4 the leftmost column.
-    rows: [u8; CELL_H as usize],
-}
-
-/// A glyph from its rows written left to right, top to bottom, '#' set and '.' clear, rows
-/// separated by one space: 7 rows (down to the baseline) or 9 (with the descender rows).
-/// Checked at compile time.
-const fn g(ch: char, pattern: &str) -> Glyph {
-    let b = pattern.as_bytes();
-    let mut rows = [0u8; CELL_H as usize];
-    let (mut i, mut row, mut col) = (0, 0, 0);
-    while i < b.len() {
-        match b[i] {
-            b' ' => {
-                assert!(col == GLYPH_W, "a glyph row is 5 wide");
-                row += 1;
-                col = 0;
-            }
-            c @ (b'#' | b'.') => {
-                assert!(
-                    row < CELL_H as usize && col < GLYPH_W,
-                    "a glyph is 5 × 7 or 5 × 9"
-                );
-                if c == b'#' {
-                    rows[row] |= 1 << (GLYPH_W - 1 - col);
-                }
-                col += 1;
-            }
-            _ => panic!("glyph patterns hold '#', '.' and ' '"),
-        }
-        i += 1;
+    if valid.is_empty() {
+        let note = font(20.0)
+            .color(&NOTE)
+            .pos(plotters::style::text_anchor::Pos::new(
+                plotters::style::text_anchor::HPos::Center,
+                plotters::style::text_anchor::VPos::Center,
+            ));
+        let centre = ((xr.start + xr.end) / 2, (yr.start + yr.end) / 2);
+        area.draw(&Text::new("no data", local(centre), note))?;
     }
-    assert!(col == GLYPH_W, "a glyph row is 5 wide");
-    assert!(
-        row + 1 == CAP_H as usize || row + 1 == CELL_H as usize,
-        "7 or 9 rows"
-    );
-    Glyph { ch, rows }
+
+    // The legend: one row per group, then the front.
+    let row_h = px(26.0);
+    let top = yr.start - oy;
+    let (sym_x, text_x) = (pad + symbol_w / 2, 2 * pad + symbol_w);
+    let centred = text.pos(plotters::style::text_anchor::Pos::new(
+        plotters::style::text_anchor::HPos::Left,
+        plotters::style::text_anchor::VPos::Center,
+    ));
+    for (row, entry) in entries.iter().enumerate() {
+        let cy = top + pad + row as i32 * row_h + row_h / 2;
+        if row < groups.len() {
+            draw_marker(&legend_area, (sym_x, cy), marker_r, group_style(row))?;
+        } else {
+            let half = symbol_w / 2;
+            let line = vec![(sym_x - half, cy), (sym_x + half, cy)];
+            legend_area.draw(&PathElement::new(line, front_style))?;
+            legend_area.draw(&ring((sym_x, cy)))?;
+        }
+        legend_area.draw(&Text::new(entry.clone(), (text_x, cy), centred.clone()))?;
+    }
+    let bottom = top + 2 * pad + entries.len() as i32 * row_h;
+    if !entries.is_empty() {
+        let frame = [(0, top), (legend_w - pad - 1, bottom)];
+        legend_area.draw(&Rectangle::new(frame, GRID.stroke_width(1)))?;
+    }
+    if let Some(note) = skipped_note {
+        let at = (0, bottom + pad);
+        legend_area.draw(&Text::new(note, at, text.color(&NOTE)))?;
+    }
+    Ok(Drawn {
+        markers,
+        x_axis,
+        y_axis,
+    })
 }
 
-/// Drawn for characters the font lacks: a hollow box, visibly not a letter.
-const MISSING: Glyph = g('\u{FFFD}', "##### #...# #...# #...# #...# #...# #####");
-
-/// The font: printable ASCII the report needs plus × (a cross centred on the digits, not the
-/// lower-case x), ρ (a p with a rounded top), ε, µ and %.
-#[rustfmt::skip]
-const GLYPHS: &[Glyph] = &[
-    g(' ', "..... ..... ..... ..... ..... ..... ....."),
-    g('0', ".###. #...# #..## #.#.# ##..# #...# .###."),
-    g('1', "..#.. .##.. ..#.. ..#.. ..#.. ..#.. .###."),
-    g('2', ".###. #...# ....# ...#. ..#.. .#... #####"),
-    g('3', "##### ...#. ..#.. ...#. ....# #...# .###."),
-    g('4', "...#. ..##. .#.#. #..#. ##### ...#. ...#."),
-    g('5', "##### #.... ####. ....# ....# #...# .###."),
-    g('6', "..##. .#... #.... ####. #...# #...# .###."),
-    g('7', "##### ....# ...#. ..#.. .#... .#... .#..."),
-    g('8', ".###. #...# #...# .###. #...# #...# .###."),
-    g('9', ".###. #...# #...# .#### ....# ...#. .##.."),
-    g('A', ".###. #...# #...# ##### #...# #...# #...#"),
-    g('B', "####. #...# #...# ####. #...# #...# ####."),
-    g('C', ".###. #...# #.... #.... #.... #...# .###."),
-    g('D', "###.. #..#. #...# #...# #...# #..#. ###.."),
-    g('E', "##### #.... #.... ####. #.... #.... #####"),
-    g('F', "##### #.... #.... ####. #.... #.... #...."),
-    g('G', ".###. #...# #.... #.### #...# #...# .####"),
-    g('H', "#...# #...# #...# ##### #...# #...# #...#"),
-    g('I', ".###. ..#.. ..#.. ..#.. ..#.. ..#.. .###."),
-    g('J', "..### ...#. ...#. ...#. ...#. #..#. .##.."),
-    g('K', "#...# #..#. #.#.. ##... #.#.. #..#. #...#"),
-    g('L', "#.... #.... #.... #.... #.... #.... #####"),
-    g('M', "#...# ##.## #.#.# #.#.# #...# #...# #...#"),
-    g('N', "#...# #...# ##..# #.#.# #..## #...# #...#"),
-    g('O', ".###. #...# #...# #...# #...# #...# .###."),
-    g('P', "####. #...# #...# ####. #.... #.... #...."),
-    g('Q', ".###. #...# #...# #...# #.#.# #..#. .##.#"),
-    g('R', "####. #...# #...# ####. #.#.. #..#. #...#"),
-    g('S', ".#### #.... #.... .###. ....# ....# ####."),
-    g('T', "##### ..#.. ..#.. ..#.. ..#.. ..#.. ..#.."),
-    g('U', "#...# #...# #...# #...# #...# #...# .###."),
-    g('V', "#...# #...# #...# #...# #...# .#.#. ..#.."),
-    g('W', "#...# #...# #...# #.#.# #.#.# #.#.# .#.#."),
-    g('X', "#...# #...# .#.#. ..#.. .#.#. #...# #...#"),
-    g('Y', "#...# #...# .#.#. ..#.. ..#.. ..#.. ..#.."),
-    g('Z', "##### ....# ...#. ..#.. .#... #.... #####"),
-    g('a', "..... ..... .###. ....# .#### #...# .####"),
-    g('b', "#.... #.... #.##. ##..# #...# #...# ####."),
-    g('c', "..... ..... .###. #.... #.... #...# .###."),
-    g('d', "....# ....# .##.# #..## #...# #...# .####"),
-    g('e', "..... ..... .###. #...# ##### #.... .###."),
-    g('f', "..##. .#..# .#... ###.. .#... .#... .#..."),
-    g('g', "..... ..... .#### #...# #...# #...# .#### ....# .###."),
-    g('h', "#.... #.... #.##. ##..# #...# #...# #...#"),
-    g('i', "..#.. ..... .##.. ..#.. ..#.. ..#.. .###."),
-    g('j', "...#. ..... ..##. ...#. ...#. ...#. ...#. #..#. .##.."),
-    g('k', "#.... #.... #..#. #.#.. ##... #.#.. #..#."),
-    g('l', ".##.. ..#.. ..#.. ..#.. ..#.. ..#.. .###."),
-    g('m', "..... ..... ##.#. #.#.# #.#.# #.#.# #.#.#"),
-    g('n', "..... ..... #.##. ##..# #...# #...# #...#"),
-    g('o', "..... ..... .###. #...# #...# #...# .###."),
-    g('p', "..... ..... ####. #...# #...# #...# ####. #.... #...."),
-    g('q', "..... ..... .#### #...# #...# #...# .#### ....# ....#"),
-    g('r', "..... ..... #.##. ##..# #.... #.... #...."),
-    g('s', "..... ..... .###. #.... .###. ....# ####."),
-    g('t', ".#... .#... ###.. .#... .#... .#..# ..##."),
-    g('u', "..... ..... #...# #...# #...# #..## .##.#"),
-    g('v', "..... ..... #...# #...# #...# .#.#. ..#.."),
-    g('w', "..... ..... #...# #...# #.#.# #.#.# .#.#."),
-    g('x', "..... ..... #...# .#.#. ..#.. .#.#. #...#"),
-    g('y', "..... ..... #...# #...# #...# #...# .#### ....# .###."),
-    g('z', "..... ..... ##### ...#. ..#.. .#... #####"),
-    g('.', "..... ..... ..... ..... ..... .##.. .##.."),
-    g(',', "..... ..... ..... ..... ..... .##.. .##.. ..#.. .#..."),
-    g(';', "..... .##.. .##.. ..... .##.. .##.. ..#.. .#... ....."),
-    g(':', "..... .##.. .##.. ..... .##.. .##.. ....."),
-    g('-', "..... ..... ..... .###. ..... ..... ....."),
-    g('+', "..... ..#.. ..#.. ##### ..#.. ..#.. ....."),
-    g('=', "..... ..... ##### ..... ##### ..... ....."),
-    g('_', "..... ..... ..... ..... ..... ..... ..... ##### ....."),
-    g('/', "....# ....# ...#. ..#.. .#... #.... #...."),
-    g('(', "...#. ..#.. .#... .#... .#... ..#.. ...#."),
-    g(')', ".#... ..#.. ...#. ...#. ...#. ..#.. .#..."),
-    g('[', ".###. .#... .#... .#... .#... .#... .###."),
-    g(']', ".###. ...#. ...#. ...#. ...#. ...#. .###."),
-    g('<', "...#. ..#.. .#... #.... .#... ..#.. ...#."),
-    g('>', ".#... ..#.. ...#. ....# ...#. ..#.. .#..."),
-    g('%', "##... ##..# ...#. ..#.. .#... #..## ...##"),
-    g('!', "..#.. ..#.. ..#.. ..#.. ..#.. ..... ..#.."),
-    g('?', ".###. #...# ....# ...#. ..#.. ..... ..#.."),
-    g('\'', "..#.. ..#.. .#... ..... ..... ..... ....."),
-    g('*', "..... ..#.. #.#.# .###. #.#.# ..#.. ....."),
-    g('#', ".#.#. .#.#. ##### .#.#. ##### .#.#. .#.#."),
-    g('×', "..... #...# .#.#. ..#.. .#.#. #...# ....."),
-    g('ρ', "..... ..... .###. #...# #...# ##..# #.##. #.... #...."),
-    g('ε', "..... ..... .###. #.... .##.. #.... .###."),
-    g('µ', "..... ..... #...# #...# #...# #..## ###.# #.... #...."),
-];
-
-fn glyph(ch: char) -> &'static Glyph {
-    GLYPHS.iter().find(|g| g.ch == ch).unwrap_or(&MISSING)
-}
-
-/// The characters the font draws (others draw as a hollow box).
-pub fn supported_chars() -> impl Iterator<Item = char> {
-    GLYPHS.iter().map(|g| g.ch)
-}
-
-/// Width and height in pixels of `text` at `scale` (the height includes the descender rows).
-pub fn text_size(text: &str, scale: u32) -> (u32, u32) {
-    let n = text.chars().count() as u32;
-    (
-        (n * GLYPH_ADVANCE).saturating_sub(1) * scale,
-        CELL_H * scale,
-    )
-}
-
-/// Calls `put` with the offset (along the text, down the cell) of every set pixel.
-fn for_each_text_pixel(text: &str, scale: u32, mut put: impl FnMut(i32, i32)) {
-    let s = scale as i32;
-    for (n, ch) in text.chars().enumerate() {
-        let x0 = n as i32 * (GLYPH_ADVANCE * scale) as i32;
-        for (row, bits) in glyph(ch).rows.iter().enumerate() {
-            for col in 0..GLYPH_W as i32 {
-                if bits & (1 << (GLYPH_W as i32 - 1 - col)) == 0 {
-                    continue;
-                }
-                for dy in 0..s {
-                    for dx in 0..s {
-                        put(x0 + col * s + dx, row as i32 * s + dy);
-                    }
-                }
-            }
+/// Draws `panels` stacked top to bottom, each `width` × `panel_height` pixels.
+fn draw_figure<DB: DrawingBackend>(
+    root: DrawingArea<DB, Shift>,
+    panels: &[Panel],
+) -> DrawResult<Vec<Drawn>, DB> {
+    root.fill(&WHITE_C)?;
+    let mut drawn = Vec::with_capacity(panels.len());
+    if !panels.is_empty() {
+        for (area, panel) in root.split_evenly((panels.len(), 1)).iter().zip(panels) {
+            drawn.push(draw_panel(area, &panel.spec, &panel.points)?);
         }
     }
+    root.present()?;
+    Ok(drawn)
 }
 
-/// Draws `text` with the top-left of its first cell at (x, y), each font pixel `scale`
-/// pixels square.
-pub fn draw_text(img: &mut RgbImage, x: i32, y: i32, text: &str, scale: u32, colour: Rgb<u8>) {
-    for_each_text_pixel(text, scale, |u, v| put(img, x + u, y + v, colour));
+fn plot_error<E: std::error::Error + Send + Sync + 'static>(
+    e: DrawingAreaErrorKind<E>,
+) -> MeasureError {
+    MeasureError::Plot(Box::new(e))
 }
 
-/// Draws `text` reading upwards (turned 90° anticlockwise), starting at row `y` with the top
-/// of its cells at column `x`: for a y axis title.
-pub fn draw_text_up(img: &mut RgbImage, x: i32, y: i32, text: &str, scale: u32, colour: Rgb<u8>) {
-    for_each_text_pixel(text, scale, |u, v| put(img, x + v, y - u, colour));
+/// The figure as an RGB image (antialiased text), with where each panel's markers are.
+pub fn render_png(
+    panels: &[Panel],
+    width: u32,
+    panel_height: u32,
+) -> Result<(RgbImage, Vec<Drawn>), MeasureError> {
+    let height = panel_height * panels.len().max(1) as u32;
+    let mut buf = vec![255u8; width as usize * height as usize * 3];
+    let drawn = {
+        let root = BitMapBackend::with_buffer(&mut buf, (width, height)).into_drawing_area();
+        draw_figure(root, panels).map_err(plot_error)?
+    };
+    let img = RgbImage::from_raw(width, height, buf).expect("buffer of width × height × 3");
+    Ok((img, drawn))
+}
+
+/// The figure as an SVG document (text as text, in the `sans-serif` family).
+pub fn render_svg(panels: &[Panel], width: u32, panel_height: u32) -> Result<String, MeasureError> {
+    let height = panel_height * panels.len().max(1) as u32;
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (width, height)).into_drawing_area();
+        draw_figure(root, panels).map_err(plot_error)?;
+    }
+    Ok(svg)
+}
+
+/// Writes the figure as a PNG at `png` and an SVG at `svg`.
+pub fn write_figure(
+    png: &Path,
+    svg: &Path,
+    panels: &[Panel],
+    width: u32,
+    panel_height: u32,
+) -> Result<(), MeasureError> {
+    let (img, _) = render_png(panels, width, panel_height)?;
+    img.save_with_format(png, image::ImageFormat::Png)
+        .map_err(|source| MeasureError::Image {
+            path: png.to_path_buf(),
+            source,
+        })?;
+    let text = render_svg(panels, width, panel_height)?;
+    std::fs::write(svg, text).map_err(|source| MeasureError::Write {
+        path: svg.to_path_buf(),
+        source,
+    })
 }
 
 #[cfg(test)]
@@ -1086,27 +789,15 @@ mod tests {
             y_label: "error ρ (px)".into(),
             log_x,
             log_y,
-            width: 800,
-            height: 560,
         }
     }
 
-    fn is_white(img: &RgbImage, x: u32, y: u32) -> bool {
-        *img.get_pixel(x, y) == WHITE
+    fn panel(spec: PlotSpec, points: Vec<Point>) -> Panel {
+        Panel { spec, points }
     }
 
-    /// Non-white pixels in a square of radius `r` around (x, y).
-    fn ink_near(img: &RgbImage, x: i32, y: i32, r: i32) -> usize {
-        let mut n = 0;
-        for yy in y - r..=y + r {
-            for xx in x - r..=x + r {
-                let inside = xx >= 0 && yy >= 0 && xx < img.width() as i32;
-                if inside && yy < img.height() as i32 && !is_white(img, xx as u32, yy as u32) {
-                    n += 1;
-                }
-            }
-        }
-        n
+    fn rgb(c: RGBColor) -> image::Rgb<u8> {
+        image::Rgb([c.0, c.1, c.2])
     }
 
     #[test]
@@ -1187,31 +878,42 @@ mod tests {
             labels(&linear_ticks(-0.05, 1.05, 5.0)),
             ["0.0", "0.2", "0.4", "0.6", "0.8", "1.0"]
         );
-        // Three decades: decades labelled, 2 and 5 minor ticks unlabelled.
+        // Three decades: decades labelled, 2 and 5 ticks unlabelled.
         let axis = Axis {
             lo: 0.08,
             hi: 120.0,
             log: true,
         };
-        let t = axis_ticks(&axis, 600.0, 1);
+        let t = axis_ticks(&axis, 8.0);
         assert_eq!(labels(&t), ["0.1", "1", "10", "100"]);
         let values: Vec<f64> = t.iter().map(|t| t.value).collect();
         let expected = [0.1, 0.2, 0.5, 1.0, 2.0, 5.0, 10.0, 20.0, 50.0, 100.0];
+        assert_eq!(values.len(), expected.len());
         assert!(
             values
                 .iter()
                 .zip(expected)
                 .all(|(a, b)| (a - b).abs() < 1e-12 * b)
         );
-        // Under two decades: the minor ticks are labelled too.
+        // Under two decades: the 2 and 5 ticks are labelled too.
         let axis = Axis {
             lo: 1.5,
             hi: 60.0,
             log: true,
         };
         assert_eq!(
-            labels(&axis_ticks(&axis, 600.0, 1)),
+            labels(&axis_ticks(&axis, 8.0)),
             ["2", "5", "10", "20", "50"]
+        );
+        // Under one decade: every 1…9 × 10^k.
+        let axis = Axis {
+            lo: 1.9,
+            hi: 8.2,
+            log: true,
+        };
+        assert_eq!(
+            labels(&axis_ticks(&axis, 8.0)),
+            ["2", "3", "4", "5", "6", "7", "8"]
         );
         // Inside one 1-2-5 step: linear steps.
         let axis = Axis {
@@ -1219,7 +921,7 @@ mod tests {
             hi: 2.9,
             log: true,
         };
-        let t = labels(&axis_ticks(&axis, 600.0, 1));
+        let t = labels(&axis_ticks(&axis, 8.0));
         assert!(
             t.len() >= 3 && t.iter().all(|l| l.starts_with("2.")),
             "{t:?}"
@@ -1232,13 +934,13 @@ mod tests {
             labels(&linear_ticks(1.1e9, 1.35e9, 3.0)),
             ["1.1e9", "1.2e9", "1.3e9"]
         );
-        // 600 decades on 600 pixels: ticks every 50 decades.
+        // 600 decades with room for 12 ticks: every 50th decade.
         let axis = Axis {
             lo: 1e-300,
             hi: 1e300,
             log: true,
         };
-        let t = labels(&axis_ticks(&axis, 600.0, 1));
+        let t = labels(&axis_ticks(&axis, 12.0));
         assert_eq!(t.len(), 13);
         assert_eq!(t[..3], ["1e-300", "1e-250", "1e-200"]);
         assert_eq!(log_label(5, -3), "0.005");
@@ -1259,6 +961,15 @@ mod tests {
         assert!(!fell_back && a.log && a.lo == 1.0 && a.hi == 10.0);
     }
 
+    #[test]
+    fn the_embedded_font_parses() {
+        assert!(ab_glyph_parses(FONT_BYTES));
+    }
+
+    fn ab_glyph_parses(bytes: &'static [u8]) -> bool {
+        register_font("globe-test-font", FontStyle::Normal, bytes).is_ok()
+    }
+
     fn sample() -> Vec<Point> {
         vec![
             p("a1", "alpha", 2.0, 3.0),
@@ -1273,41 +984,63 @@ mod tests {
     #[test]
     fn markers_are_where_the_mapping_says() {
         for (log_x, log_y) in [(false, false), (true, true), (true, false)] {
-            let (spec, pts) = (spec(log_x, log_y), sample());
-            let img = render_plot(&spec, &pts);
-            assert_eq!(img.dimensions(), (spec.width, spec.height));
-            let frame = PlotFrame::new(&spec, &pts);
+            let pts = sample();
+            let (img, drawn) =
+                render_png(&[panel(spec(log_x, log_y), pts.clone())], 800, 560).expect("renders");
+            assert_eq!(img.dimensions(), (800, 560));
             let groups = ["alpha", "beta", "gamma", "delta"];
-            for q in &pts {
-                let (x, y) = frame.to_pixel(q.x, q.y).expect("drawable");
-                let (x, y) = (x.round() as u32, y.round() as u32);
+            for (q, m) in pts.iter().zip(&drawn[0].markers) {
+                let (x, y) = m.expect("drawable");
                 let g = groups.iter().position(|&g| g == q.group).unwrap();
-                assert_eq!(*img.get_pixel(x, y), group_style(g).colour, "{}", q.label);
+                let c = *img.get_pixel(x as u32, y as u32);
+                assert_eq!(c, rgb(group_style(g).colour), "{}", q.label);
             }
-            // Inside the plot area, well away from every point: background or grid.
-            let (x, y) = frame.to_pixel(18.0, 5.5).unwrap();
-            let c = img.get_pixel(x.round() as u32, y.round() as u32);
-            assert!([WHITE, GRID, GRID_MINOR].contains(c), "{c:?}");
-            assert!(is_white(&img, 0, 0));
-            assert!(is_white(&img, spec.width - 1, spec.height - 1));
+            assert_eq!(*img.get_pixel(0, 0), rgb(WHITE_C));
+            assert_eq!(*img.get_pixel(799, 559), rgb(WHITE_C));
         }
     }
 
     #[test]
     fn the_front_is_drawn_between_its_points() {
-        let (spec, pts) = (spec(true, true), sample());
-        let img = render_plot(&spec, &pts);
-        let frame = PlotFrame::new(&spec, &pts);
+        let pts = sample();
+        let (img, drawn) = render_png(&[panel(spec(true, true), pts.clone())], 800, 560).unwrap();
         // Front: b1 (1, 6) → a1 (2, 3) → a2 (8, 1) → c1 (20, 0.3); a2 → c1 is long.
         assert_eq!(pareto_front(&pts), vec![2, 0, 1, 4]);
-        let a = frame.to_pixel(8.0, 1.0).unwrap();
-        let b = frame.to_pixel(20.0, 0.3).unwrap();
-        let (mx, my) = ((a.0 + b.0) / 2.0, (a.1 + b.1) / 2.0);
-        let (mx, my) = (mx.round() as i32, my.round() as i32);
+        let (a, b) = (drawn[0].markers[1].unwrap(), drawn[0].markers[4].unwrap());
+        let (mx, my) = ((a.0 + b.0) / 2, (a.1 + b.1) / 2);
         let front_near = (-1..=1)
             .flat_map(|dy| (-1..=1).map(move |dx| (mx + dx, my + dy)))
-            .any(|(x, y)| *img.get_pixel(x as u32, y as u32) == FRONT);
+            .any(|(x, y)| *img.get_pixel(x as u32, y as u32) == rgb(FRONT));
         assert!(front_near);
+        // A dominated point (b2) has no front through it: nothing crimson at its ring.
+        let (x, y) = drawn[0].markers[3].unwrap();
+        let r = 9;
+        let crimson = (-r..=r)
+            .flat_map(|dy| (-r..=r).map(move |dx| (x + dx, y + dy)))
+            .filter(|&(x, y)| *img.get_pixel(x as u32, y as u32) == rgb(FRONT))
+            .count();
+        assert_eq!(crimson, 0);
+    }
+
+    /// Text is antialiased: the labels leave grey levels between the ink and the paper.
+    #[test]
+    fn text_is_antialiased() {
+        let only_text = PlotSpec {
+            title: "Antialiased title text".into(),
+            ..spec(false, false)
+        };
+        let (img, _) = render_png(&[panel(only_text, vec![])], 600, 300).unwrap();
+        // The title's band: above the plot area, all text.
+        let mut levels = std::collections::BTreeSet::new();
+        for y in 0..30 {
+            for x in 0..600 {
+                let c = img.get_pixel(x, y);
+                if c[0] == c[1] && c[1] == c[2] {
+                    levels.insert(c[0]);
+                }
+            }
+        }
+        assert!(levels.len() > 20, "grey levels in the title: {levels:?}");
     }
 
     #[test]
@@ -1330,101 +1063,30 @@ mod tests {
         ];
         for (log_x, log_y) in [(false, false), (true, true)] {
             for (name, pts) in &cases {
-                let spec = spec(log_x, log_y);
-                let img = render_plot(&spec, pts);
-                assert_eq!(img.dimensions(), (spec.width, spec.height), "{name}");
-                let frame = PlotFrame::new(&spec, pts);
-                assert!(
-                    frame.left < frame.right && frame.top < frame.bottom,
-                    "{name}"
-                );
-                for q in pts.iter().filter(|q| q.x.is_finite() && q.y.is_finite()) {
-                    let (x, y) = frame.to_pixel(q.x, q.y).expect(name);
-                    assert!(
-                        x >= f64::from(frame.left) && x <= f64::from(frame.right),
-                        "{name}"
-                    );
-                    assert!(
-                        y >= f64::from(frame.top) && y <= f64::from(frame.bottom),
-                        "{name}"
-                    );
-                    let ink = ink_near(&img, x.round() as i32, y.round() as i32, 0);
-                    assert_eq!(ink, 1, "{name}");
+                let (img, drawn) =
+                    render_png(&[panel(spec(log_x, log_y), pts.clone())], 640, 400).expect(name);
+                assert_eq!(img.dimensions(), (640, 400), "{name}");
+                for (q, m) in pts.iter().zip(&drawn[0].markers) {
+                    let finite = q.x.is_finite() && q.y.is_finite();
+                    assert_eq!(m.is_some(), finite, "{name}");
+                    if let Some((x, y)) = *m {
+                        assert!((0..640).contains(&x) && (0..400).contains(&y), "{name}");
+                        assert_ne!(*img.get_pixel(x as u32, y as u32), rgb(WHITE_C), "{name}");
+                    }
                 }
+                render_svg(&[panel(spec(log_x, log_y), pts.clone())], 640, 400).expect(name);
             }
         }
         // Zero on a log axis: that axis falls back to linear and says so.
         let pts = xy(&[(0.0, 1.0), (3.0, 2.0)]);
-        let frame = PlotFrame::new(&spec(true, true), &pts);
-        assert!(!frame.x_axis.log && frame.y_axis.log);
-        // No data: a note in the middle of the plot area.
-        let spec = spec(false, false);
-        let frame = PlotFrame::new(&spec, &[]);
-        let img = render_plot(&spec, &[]);
-        let (cx, cy) = (
-            (frame.left + frame.right) / 2,
-            (frame.top + frame.bottom) / 2,
-        );
-        assert!(ink_near(&img, cx, cy, 30) > 20);
-        // Too small for the margins: no panic.
-        for (w, h) in [(1, 1), (40, 30), (0, 0)] {
-            let small = PlotSpec {
-                width: w,
-                height: h,
-                ..spec.clone()
-            };
-            assert_eq!(render_plot(&small, &sample()).dimensions(), (w, h));
-        }
+        let (_, drawn) = render_png(&[panel(spec(true, true), pts)], 640, 400).unwrap();
+        assert!(!drawn[0].x_axis.log && drawn[0].y_axis.log);
     }
 
+    /// Writes the example of the report's plot, 12 settings in 4 groups, log-log, as PNG and
+    /// SVG; both read back.
     #[test]
-    fn every_glyph_draws_within_its_cell() {
-        let mut seen = Vec::new();
-        for ch in supported_chars() {
-            assert!(!seen.contains(&ch), "{ch:?} twice");
-            seen.push(ch);
-            let text = ch.to_string();
-            let (w, h) = text_size(&text, 2);
-            let mut img = RgbImage::from_pixel(w + 8, h + 8, WHITE);
-            draw_text(&mut img, 4, 4, &text, 2, TEXT);
-            let ink = ink_near(&img, 0, 0, (w + h + 16) as i32);
-            assert_eq!(ink == 0, ch == ' ', "{ch:?} draws {ink} pixels");
-            // Nothing outside the cell.
-            for (x, y, c) in img.enumerate_pixels() {
-                let inside = (4..4 + w).contains(&x) && (4..4 + h).contains(&y);
-                assert!(inside || *c == WHITE, "{ch:?} at ({x}, {y})");
-            }
-        }
-        for ch in "0123456789 .,-+_/():=×%ρ"
-            .chars()
-            .chain('a'..='z')
-            .chain('A'..='Z')
-        {
-            assert!(seen.contains(&ch), "{ch:?} missing");
-        }
-        // Unknown characters draw a box, distinct from every glyph.
-        assert!(!seen.contains(&'λ') && glyph('λ').rows == MISSING.rows);
-        assert!(GLYPHS.iter().all(|g| g.rows != MISSING.rows));
-        assert_eq!(text_size("ab", 3), (33, 27));
-        assert_eq!(text_size("", 3), (0, 27));
-    }
-
-    #[test]
-    fn upward_text_is_the_turned_horizontal_text() {
-        let text = "ρ (px)";
-        let (w, h) = text_size(text, 1);
-        let mut across = RgbImage::from_pixel(w, h, WHITE);
-        draw_text(&mut across, 0, 0, text, 1, TEXT);
-        let mut up = RgbImage::from_pixel(h, w, WHITE);
-        draw_text_up(&mut up, 0, w as i32 - 1, text, 1, TEXT);
-        for (u, v, c) in across.enumerate_pixels() {
-            assert_eq!(up.get_pixel(v, w - 1 - u), c);
-        }
-    }
-
-    /// Writes the example of the report's plot: 12 settings in 4 groups, log-log.
-    #[test]
-    fn writes_the_example_png() {
+    fn writes_the_example_png_and_svg() {
         let pts = vec![
             p("n=32", "projective grid", 0.9, 4.2),
             p("n=64", "projective grid", 1.6, 1.9),
@@ -1445,12 +1107,17 @@ mod tests {
             y_label: "p99 error ρ (px)".into(),
             log_x: true,
             log_y: true,
-            width: 960,
-            height: 640,
         };
-        let path = std::env::temp_dir().join("globe-plot-example.png");
-        write_plot_png(&path, &spec, &pts).unwrap();
-        let back = image::open(&path).unwrap();
-        assert_eq!((back.width(), back.height()), (960, 640));
+        let dir = tempfile::tempdir().unwrap();
+        let (png, svg) = (dir.path().join("plot.png"), dir.path().join("plot.svg"));
+        write_figure(&png, &svg, &[panel(spec, pts)], 1100, 620).unwrap();
+        let back = image::open(&png).unwrap();
+        assert_eq!((back.width(), back.height()), (1100, 620));
+        let text = std::fs::read_to_string(&svg).unwrap();
+        assert!(text.starts_with("<svg") && text.contains("ε=0.5") && text.contains("ray march"));
+        if let Ok(keep) = std::env::var("GLOBE_PLOT_EXAMPLE") {
+            std::fs::copy(&png, format!("{keep}.png")).unwrap();
+            std::fs::copy(&svg, format!("{keep}.svg")).unwrap();
+        }
     }
 }
