@@ -185,7 +185,8 @@ struct Entry {
     line: usize,
 }
 
-const KNOWN_KEYS: &[&str] = &[
+/// The keys that describe the data file (the georeferencing keys are [`GEO_KEYS`]).
+const DATA_KEYS: &[&str] = &[
     "BYTEORDER",
     "LAYOUT",
     "NROWS",
@@ -198,6 +199,10 @@ const KNOWN_KEYS: &[&str] = &[
     "BANDGAPBYTES",
     "SKIPBYTES",
     "NODATA",
+];
+
+/// Every key that places the grid; at least one must be given.
+const GEO_KEYS: &[&str] = &[
     "ULXMAP",
     "ULYMAP",
     "XDIM",
@@ -213,8 +218,9 @@ fn canonical_key(token: &str) -> Option<&'static str> {
     if token.eq_ignore_ascii_case("NODATA_VALUE") {
         return Some("NODATA");
     }
-    KNOWN_KEYS
+    DATA_KEYS
         .iter()
+        .chain(GEO_KEYS)
         .copied()
         .find(|k| k.eq_ignore_ascii_case(token))
 }
@@ -288,17 +294,21 @@ impl<'p> Entries<'p> {
         header_error(self.path, field, message)
     }
 
-    fn int(&self, key: &str) -> Result<Option<i64>, DemError> {
+    /// The value of `key` parsed as `T`; an error saying it expected `what` when it is not one.
+    fn parsed<T: std::str::FromStr>(&self, key: &str, what: &str) -> Result<Option<T>, DemError> {
         let Some(e) = self.get(key) else {
             return Ok(None);
         };
-        match e.value.parse::<i64>() {
-            Ok(v) => Ok(Some(v)),
-            Err(_) => Err(self.err(
+        e.value.parse::<T>().map(Some).map_err(|_| {
+            self.err(
                 key,
-                format!("line {}: expected an integer, found {:?}", e.line, e.value),
-            )),
-        }
+                format!("line {}: expected {what}, found {:?}", e.line, e.value),
+            )
+        })
+    }
+
+    fn int(&self, key: &str) -> Result<Option<i64>, DemError> {
+        self.parsed(key, "an integer")
     }
 
     /// An integer within `lo..=hi`; outside it, an error saying it expected `expected`.
@@ -332,16 +342,7 @@ impl<'p> Entries<'p> {
     }
 
     fn float(&self, key: &str) -> Result<Option<f64>, DemError> {
-        let Some(e) = self.get(key) else {
-            return Ok(None);
-        };
-        match e.value.parse::<f64>() {
-            Ok(v) => Ok(Some(v)),
-            Err(_) => Err(self.err(
-                key,
-                format!("line {}: expected a number, found {:?}", e.line, e.value),
-            )),
-        }
+        self.parsed(key, "a number")
     }
 
     fn finite(&self, key: &str) -> Result<Option<f64>, DemError> {
@@ -628,19 +629,6 @@ struct Georeference {
     xdim: f64,
     ydim: f64,
 }
-
-/// Every key that places the grid; at least one must be given.
-const GEO_KEYS: [&str; 9] = [
-    "ULXMAP",
-    "ULYMAP",
-    "XDIM",
-    "YDIM",
-    "XLLCORNER",
-    "YLLCORNER",
-    "XLLCENTER",
-    "YLLCENTER",
-    "CELLSIZE",
-];
 
 /// Pixel size, upper-left pixel centre (from ULXMAP/ULYMAP or GDAL's corner and centre
 /// alternatives), and a check that the grid is geographic.
