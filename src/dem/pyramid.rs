@@ -170,6 +170,8 @@
 //! a shell `>` redirection, a copy tool opening with `O_TRUNC`) between a check and an
 //! access still faults. Do not edit pyramid files in place; a reader that must survive that
 //! should read tiles with positioned reads (`pread`) instead of the map.
+//!
+//! The map itself is made by `crate::dem::mapped`, shared with the EHdr and netCDF readers.
 
 mod build;
 mod filter;

@@ -1,12 +1,10 @@
 //! One EHdr raster: the header, its memory-mapped data file, and band 1 decoded by row.
 
-use std::fs::File;
 use std::path::{Path, PathBuf};
-
-use memmap2::Mmap;
 
 use super::header::{ByteOrder, DataFileFacts, EhdrHeader, MAX_HEADER_BYTES, SampleType};
 use super::sample::{self, PixelSource};
+use crate::dem::mapped::{MappedFile, OpenFile};
 use crate::dem::{DemError, GeoGrid, RasterSource};
 
 /// Extensions (any case) a data file next to a `.HDR` may have.
@@ -51,7 +49,7 @@ pub struct EhdrRaster {
     header: EhdrHeader,
     hdr_path: PathBuf,
     data_path: PathBuf,
-    map: Mmap,
+    map: MappedFile,
     nodata: NodataRule,
 }
 
@@ -306,8 +304,8 @@ impl EhdrRaster {
     pub fn open(path: &Path) -> Result<EhdrRaster, DemError> {
         let (hdr_path, data_path) = locate(path)?;
         let text = read_header_text(&hdr_path)?;
-        let file = File::open(&data_path).map_err(|e| io_error(&data_path, e))?;
-        let len = file.metadata().map_err(|e| io_error(&data_path, e))?.len();
+        let file = OpenFile::open(&data_path)?;
+        let len = file.len();
         let facts = DataFileFacts {
             len,
             is_flt: data_path
@@ -337,18 +335,8 @@ impl EhdrRaster {
                 ),
             });
         }
-        // SAFETY: the map is read-only and private to this value; like every memory map it
-        // relies on no other process truncating the file while it is open (documented).
-        let map = unsafe { Mmap::map(&file) }.map_err(|e| io_error(&data_path, e))?;
-        if map.len() as u64 != expected {
-            return Err(DemError::Data {
-                path: data_path,
-                message: format!(
-                    "changed size while being opened ({} bytes mapped, {expected} expected)",
-                    map.len()
-                ),
-            });
-        }
+        // The map is checked to be `expected` bytes long (the length measured above).
+        let map = file.map()?;
         let nodata = NodataRule::new(header.nodata, header.sample_type);
         Ok(EhdrRaster {
             header,

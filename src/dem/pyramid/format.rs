@@ -383,27 +383,102 @@ impl Header {
 
     /// Parses and validates a header from the start of a file of `actual_len` bytes
     /// (`bytes` may be the whole file). Every failure names the file and what is wrong.
+    ///
+    /// The sections are checked in file order, each before anything depends on it: magic and
+    /// version, the fixed header's lengths, the header CRC, the storage fields, the description,
+    /// the level table, the layout it implies, the tile index, and last the file's length.
     pub fn decode(bytes: &[u8], actual_len: u64, path: &Path) -> Result<Header, DemError> {
-        let p = || path.to_path_buf();
-        let field_err = |field: &str, message: String| DemError::Header {
-            path: p(),
+        let d = Decoder {
+            bytes,
+            actual_len,
+            path,
+        };
+        d.magic_and_version()?;
+        let fixed = d.fixed_header()?;
+        d.header_crc(&fixed)?;
+        // From here on the bytes are what the writer wrote (or a deliberate forgery): check that
+        // they are consistent, so that nothing later can index out of bounds.
+        d.storage(&fixed)?;
+        let description = d.description(&fixed)?;
+        let (levels, index_offsets) = d.level_table(&fixed);
+        let wraps = d.check_levels(&fixed, &levels)?;
+        let lay = d.check_layout(&fixed, &levels, &index_offsets)?;
+        let index = d.tile_index(&fixed, &levels, &lay)?;
+        d.check_file_len(&fixed, &levels, &lay, &index)?;
+        Ok(Header {
+            tile_size: fixed.tile_size,
+            wraps,
+            encoding: fixed.encoding,
+            extents: fixed.extents,
+            tile_data_offset: fixed.tile_data_offset,
+            file_len: fixed.file_len,
+            nan_count: fixed.nan_count,
+            min_m: fixed.min_m,
+            max_m: fixed.max_m,
+            description,
+            levels,
+            index,
+        })
+    }
+}
+
+/// One header being decoded: the bytes, the file's real length and its path (for errors).
+struct Decoder<'a> {
+    bytes: &'a [u8],
+    actual_len: u64,
+    path: &'a Path,
+}
+
+/// The fields of the fixed part of the header, as stored (checked by the sections that use
+/// them).
+struct FixedHeader {
+    header_len: usize,
+    tile_size: usize,
+    level_count: usize,
+    flags: u32,
+    sample_format: u32,
+    encoding: Encoding,
+    extents: Extents,
+    tile_data_offset: u64,
+    file_len: u64,
+    tile_count: u64,
+    nan_count: u64,
+    min_m: f64,
+    max_m: f64,
+    desc_len: usize,
+    /// The shortest header the description and level count allow (an empty tile index).
+    min_len: usize,
+}
+
+impl Decoder<'_> {
+    fn field_err(&self, field: &str, message: String) -> DemError {
+        DemError::Header {
+            path: self.path.to_path_buf(),
             field: field.to_string(),
             message,
-        };
-        let truncated = |expected: u64, what: String| DemError::Truncated {
-            path: p(),
-            actual: actual_len,
+        }
+    }
+
+    fn truncated(&self, expected: u64, what: String) -> DemError {
+        DemError::Truncated {
+            path: self.path.to_path_buf(),
+            actual: self.actual_len,
             expected,
             what,
-        };
+        }
+    }
+
+    /// The magic bytes, then the format version.
+    fn magic_and_version(&self) -> Result<(), DemError> {
+        let bytes = self.bytes;
         if bytes.len() < MAGIC.len() {
-            return Err(truncated(
+            return Err(self.truncated(
                 FIXED_HEADER_LEN as u64,
                 "the magic bytes and the fixed header".into(),
             ));
         }
         if bytes[..8] != MAGIC {
-            return Err(field_err(
+            return Err(self.field_err(
                 "magic",
                 format!(
                     "not a globe pyramid file: the first bytes are {:?}, expected {:?}",
@@ -413,122 +488,146 @@ impl Header {
             ));
         }
         if bytes.len() < 12 {
-            return Err(truncated(
-                FIXED_HEADER_LEN as u64,
-                "the format version".into(),
-            ));
+            return Err(self.truncated(FIXED_HEADER_LEN as u64, "the format version".into()));
         }
         let version = get_u32(bytes, 8);
         if version != FORMAT_VERSION {
-            return Err(field_err(
+            return Err(self.field_err(
                 "version",
                 format!(
                     "format version {version}; this build reads version {FORMAT_VERSION} (rebuild the file with this build's importer)"
                 ),
             ));
         }
+        Ok(())
+    }
+
+    /// The fixed header: present in full, a description and level count in range, and a
+    /// header length that can hold them.
+    fn fixed_header(&self) -> Result<FixedHeader, DemError> {
+        let bytes = self.bytes;
         if bytes.len() < FIXED_HEADER_LEN {
-            return Err(truncated(
+            return Err(self.truncated(
                 FIXED_HEADER_LEN as u64,
                 format!("the fixed header ({FIXED_HEADER_LEN} bytes)"),
             ));
         }
         let header_len = get_u32(bytes, 12) as usize;
-        let tile_size = get_u32(bytes, 16) as usize;
         let level_count = get_u32(bytes, 20) as usize;
-        let flags = get_u32(bytes, 24);
-        let sample_format = get_u32(bytes, 28);
         let desc_len = get_u32(bytes, 128) as usize;
         if desc_len > MAX_DESCRIPTION {
-            return Err(field_err(
+            return Err(self.field_err(
                 "description length",
                 format!("{desc_len} bytes, at most {MAX_DESCRIPTION} expected"),
             ));
         }
         if level_count == 0 || level_count > 64 {
-            return Err(field_err(
-                "level count",
-                format!("{level_count}, expected 1 … 64"),
-            ));
+            return Err(self.field_err("level count", format!("{level_count}, expected 1 … 64")));
         }
         let min_len =
             FIXED_HEADER_LEN + desc_len.next_multiple_of(8) + LEVEL_ENTRY_LEN * level_count + 4;
         if header_len < min_len || header_len > (1 << 31) {
-            return Err(field_err(
+            return Err(self.field_err(
                 "header length",
                 format!("{header_len} bytes, but {level_count} levels need at least {min_len}"),
             ));
         }
-        if bytes.len() < header_len {
-            return Err(truncated(
+        Ok(FixedHeader {
+            header_len,
+            tile_size: get_u32(bytes, 16) as usize,
+            level_count,
+            flags: get_u32(bytes, 24),
+            sample_format: get_u32(bytes, 28),
+            encoding: Encoding {
+                quantum_m: get_f64(bytes, 32),
+                offset_m: get_f64(bytes, 40),
+            },
+            extents: Extents {
+                west_deg: get_f64(bytes, 48),
+                east_deg: get_f64(bytes, 56),
+                south_deg: get_f64(bytes, 64),
+                north_deg: get_f64(bytes, 72),
+            },
+            tile_data_offset: get_u64(bytes, 80),
+            file_len: get_u64(bytes, 88),
+            tile_count: get_u64(bytes, 96),
+            nan_count: get_u64(bytes, 104),
+            min_m: get_f64(bytes, 112),
+            max_m: get_f64(bytes, 120),
+            desc_len,
+            min_len,
+        })
+    }
+
+    /// The whole header is present and its CRC matches.
+    fn header_crc(&self, f: &FixedHeader) -> Result<(), DemError> {
+        let header_len = f.header_len;
+        if self.bytes.len() < header_len {
+            return Err(self.truncated(
                 header_len as u64,
                 format!("the end of the header (level table and tile index, {header_len} bytes)"),
             ));
         }
-        let stored_crc = get_u32(bytes, header_len - 4);
-        let crc = crc32fast::hash(&bytes[..header_len - 4]);
+        let stored_crc = get_u32(self.bytes, header_len - 4);
+        let crc = crc32fast::hash(&self.bytes[..header_len - 4]);
         if crc != stored_crc {
-            return Err(field_err(
+            return Err(self.field_err(
                 "header CRC",
                 format!(
                     "header checksum mismatch (stored {stored_crc:#010x}, computed {crc:#010x}): the header is corrupt"
                 ),
             ));
         }
-        // From here on the bytes are what the writer wrote (or a deliberate forgery): check that
-        // they are consistent, so that nothing later can index out of bounds.
+        Ok(())
+    }
+
+    /// How samples are stored: tile size, flags, sample format and height encoding.
+    fn storage(&self, f: &FixedHeader) -> Result<(), DemError> {
+        let tile_size = f.tile_size;
         if !(MIN_TILE_SIZE..=MAX_TILE_SIZE).contains(&tile_size) {
-            return Err(field_err(
+            return Err(self.field_err(
                 "tile size",
                 format!("{tile_size}, expected {MIN_TILE_SIZE} … {MAX_TILE_SIZE}"),
             ));
         }
-        if flags & !FLAG_WRAPS != 0 {
-            return Err(field_err("flags", format!("unknown flag bits {flags:#x}")));
+        if f.flags & !FLAG_WRAPS != 0 {
+            return Err(self.field_err("flags", format!("unknown flag bits {:#x}", f.flags)));
         }
-        if sample_format != SAMPLE_FORMAT_I16X3 {
-            return Err(field_err(
+        if f.sample_format != SAMPLE_FORMAT_I16X3 {
+            return Err(self.field_err(
                 "sample format",
-                format!("{sample_format}, expected {SAMPLE_FORMAT_I16X3} (i16 avg/min/max planes)"),
-            ));
-        }
-        let encoding = Encoding {
-            quantum_m: get_f64(bytes, 32),
-            offset_m: get_f64(bytes, 40),
-        };
-        if !(encoding.quantum_m.is_finite()
-            && encoding.quantum_m > 0.0
-            && encoding.offset_m.is_finite())
-        {
-            return Err(field_err(
-                "encoding",
                 format!(
-                    "quantum {} m, offset {} m: expected a finite quantum > 0 and a finite offset",
-                    encoding.quantum_m, encoding.offset_m
+                    "{}, expected {SAMPLE_FORMAT_I16X3} (i16 avg/min/max planes)",
+                    f.sample_format
                 ),
             ));
         }
-        let extents = Extents {
-            west_deg: get_f64(bytes, 48),
-            east_deg: get_f64(bytes, 56),
-            south_deg: get_f64(bytes, 64),
-            north_deg: get_f64(bytes, 72),
-        };
-        let tile_data_offset = get_u64(bytes, 80);
-        let file_len = get_u64(bytes, 88);
-        let tile_count = get_u64(bytes, 96);
-        let nan_count = get_u64(bytes, 104);
-        let min_m = get_f64(bytes, 112);
-        let max_m = get_f64(bytes, 120);
-        let description =
-            String::from_utf8(bytes[FIXED_HEADER_LEN..FIXED_HEADER_LEN + desc_len].to_vec())
-                .map_err(|_| field_err("description", "not UTF-8".into()))?;
+        let e = f.encoding;
+        if !(e.quantum_m.is_finite() && e.quantum_m > 0.0 && e.offset_m.is_finite()) {
+            return Err(self.field_err(
+                "encoding",
+                format!(
+                    "quantum {} m, offset {} m: expected a finite quantum > 0 and a finite offset",
+                    e.quantum_m, e.offset_m
+                ),
+            ));
+        }
+        Ok(())
+    }
 
-        // The level table.
-        let lay_prefix = FIXED_HEADER_LEN + desc_len.next_multiple_of(8);
-        let mut levels = Vec::with_capacity(level_count);
-        let mut index_offsets = Vec::with_capacity(level_count);
-        for i in 0..level_count {
+    fn description(&self, f: &FixedHeader) -> Result<String, DemError> {
+        String::from_utf8(self.bytes[FIXED_HEADER_LEN..FIXED_HEADER_LEN + f.desc_len].to_vec())
+            .map_err(|_| self.field_err("description", "not UTF-8".into()))
+    }
+
+    /// The level table as stored, and each level's stored tile-index offset. In bounds: the
+    /// header length was checked to hold it.
+    fn level_table(&self, f: &FixedHeader) -> (Vec<LevelGeom>, Vec<u64>) {
+        let bytes = self.bytes;
+        let lay_prefix = FIXED_HEADER_LEN + f.desc_len.next_multiple_of(8);
+        let mut levels = Vec::with_capacity(f.level_count);
+        let mut index_offsets = Vec::with_capacity(f.level_count);
+        for i in 0..f.level_count {
             let o = lay_prefix + LEVEL_ENTRY_LEN * i;
             levels.push(LevelGeom {
                 cols: get_u32(bytes, o) as usize,
@@ -546,11 +645,18 @@ impl Header {
             });
             index_offsets.push(get_u64(bytes, o + 48));
         }
+        (levels, index_offsets)
+    }
+
+    /// The level table is the one level 0's grid implies: level count, wrap flag, extents and
+    /// every level's geometry. Returns the wrap flag.
+    fn check_levels(&self, f: &FixedHeader, levels: &[LevelGeom]) -> Result<bool, DemError> {
+        let (tile_size, level_count, extents) = (f.tile_size, f.level_count, f.extents);
         let level0 = levels[0].grid;
-        check_source_grid(&level0).map_err(|m| field_err("level 0 grid", m))?;
+        check_source_grid(&level0).map_err(|m| self.field_err("level 0 grid", m))?;
         let expected = level_geoms(&level0, tile_size);
         if expected.len() != level_count {
-            return Err(field_err(
+            return Err(self.field_err(
                 "level count",
                 format!(
                     "{level_count}, but a {} × {} level 0 in tiles of {tile_size} needs {} levels",
@@ -560,9 +666,9 @@ impl Header {
                 ),
             ));
         }
-        let wraps = flags & FLAG_WRAPS != 0;
+        let wraps = f.flags & FLAG_WRAPS != 0;
         if wraps != level0.wraps_in_longitude() {
-            return Err(field_err(
+            return Err(self.field_err(
                 "flags",
                 format!(
                     "wrap flag {wraps}, but {} columns of {}° {} the circle",
@@ -578,7 +684,7 @@ impl Header {
             && close(ext.south_deg, extents.south_deg)
             && close(ext.north_deg, extents.north_deg))
         {
-            return Err(field_err(
+            return Err(self.field_err(
                 "extents",
                 format!("{extents:?} do not match the level-0 grid's footprint {ext:?}"),
             ));
@@ -595,7 +701,7 @@ impl Header {
                 || !close(g.dlon_deg, w.dlon_deg)
                 || !close(g.dlat_deg, w.dlat_deg)
             {
-                return Err(field_err(
+                return Err(self.field_err(
                     &format!("level {i}"),
                     format!(
                         "{} × {} px in {} × {} tiles at ({}, {}) step ({}, {}); expected {} × {} px in {} × {} tiles at ({}, {}) step ({}, {})",
@@ -619,21 +725,33 @@ impl Header {
                 ));
             }
         }
+        Ok(wraps)
+    }
+
+    /// The stored lengths and offsets are the ones the level table implies: header length,
+    /// tile count, each level's index offset, where tile data starts and the file's length.
+    fn check_layout(
+        &self,
+        f: &FixedHeader,
+        levels: &[LevelGeom],
+        index_offsets: &[u64],
+    ) -> Result<Layout, DemError> {
+        let (header_len, tile_count) = (f.header_len, f.tile_count);
         // Guard the arithmetic below against a forged level table (tile counts that overflow).
         let tiles: Option<usize> = levels.iter().try_fold(0usize, |acc, l| {
             acc.checked_add(l.tiles_x.checked_mul(l.tiles_y)?)
         });
-        if tiles.is_none_or(|t| t > (header_len - min_len) / INDEX_ENTRY_LEN) {
-            return Err(field_err(
+        if tiles.is_none_or(|t| t > (header_len - f.min_len) / INDEX_ENTRY_LEN) {
+            return Err(self.field_err(
                 "tile count",
                 format!(
                     "the level table implies more tiles than a {header_len}-byte header can index"
                 ),
             ));
         }
-        let lay = layout(&levels, tile_size, desc_len);
+        let lay = layout(levels, f.tile_size, f.desc_len);
         if header_len != lay.header_len || tile_count != lay.tile_count as u64 {
-            return Err(field_err(
+            return Err(self.field_err(
                 "header length",
                 format!(
                     "{header_len} bytes and {tile_count} tiles; the level table implies {} bytes and {} tiles",
@@ -644,30 +762,40 @@ impl Header {
         for (i, (&got, &first)) in index_offsets.iter().zip(&lay.first_tile).enumerate() {
             let want = (lay.index_offset + INDEX_ENTRY_LEN * first) as u64;
             if got != want {
-                return Err(field_err(
+                return Err(self.field_err(
                     &format!("level {i} index offset"),
                     format!("{got}, expected {want}"),
                 ));
             }
         }
-        if tile_data_offset != lay.tile_data_offset || file_len != lay.file_len {
-            return Err(field_err(
+        if f.tile_data_offset != lay.tile_data_offset || f.file_len != lay.file_len {
+            return Err(self.field_err(
                 "tile data",
                 format!(
-                    "tiles at {tile_data_offset}, file length {file_len}; the level table implies {} and {}",
-                    lay.tile_data_offset, lay.file_len
+                    "tiles at {}, file length {}; the level table implies {} and {}",
+                    f.tile_data_offset, f.file_len, lay.tile_data_offset, lay.file_len
                 ),
             ));
         }
-        // The tile index: every payload in bounds, in order, not overlapping.
+        Ok(lay)
+    }
+
+    /// The tile index: every payload in bounds, in order, not overlapping.
+    fn tile_index(
+        &self,
+        f: &FixedHeader,
+        levels: &[LevelGeom],
+        lay: &Layout,
+    ) -> Result<Vec<TileEntry>, DemError> {
+        let file_len = f.file_len;
         let mut index = Vec::with_capacity(lay.tile_count);
-        let mut end = tile_data_offset;
+        let mut end = f.tile_data_offset;
         for i in 0..lay.tile_count {
             let o = lay.index_offset + INDEX_ENTRY_LEN * i;
             let e = TileEntry {
-                offset: get_u64(bytes, o),
-                len: get_u32(bytes, o + 8),
-                crc32: get_u32(bytes, o + 12),
+                offset: get_u64(self.bytes, o),
+                len: get_u32(self.bytes, o + 8),
+                crc32: get_u32(self.bytes, o + 12),
             };
             if e.len as u64 != lay.tile_bytes
                 || e.offset < end
@@ -676,8 +804,8 @@ impl Header {
                     .checked_add(e.len as u64)
                     .is_none_or(|x| x > file_len)
             {
-                let (level, tx, ty) = tile_position(&levels, &lay.first_tile, i);
-                return Err(field_err(
+                let (level, tx, ty) = tile_position(levels, &lay.first_tile, i);
+                return Err(self.field_err(
                     "tile index",
                     format!(
                         "level {level} tile ({tx}, {ty}): offset {} length {} is out of place (expected length {}, from {end} on, within {file_len} bytes)",
@@ -688,15 +816,27 @@ impl Header {
             end = e.offset + e.len as u64;
             index.push(e);
         }
-        // Only now compare with the real length, so the message can say what is missing.
+        Ok(index)
+    }
+
+    /// The file is exactly as long as the header says. Checked last, so that a short file's
+    /// message can say which tiles are missing.
+    fn check_file_len(
+        &self,
+        f: &FixedHeader,
+        levels: &[LevelGeom],
+        lay: &Layout,
+        index: &[TileEntry],
+    ) -> Result<(), DemError> {
+        let (actual_len, file_len) = (self.actual_len, f.file_len);
         if actual_len < file_len {
             let first_missing = index
                 .iter()
                 .position(|e| e.offset + e.len as u64 > actual_len)
                 .unwrap_or(index.len() - 1);
-            let (level, tx, ty) = tile_position(&levels, &lay.first_tile, first_missing);
+            let (level, tx, ty) = tile_position(levels, &lay.first_tile, first_missing);
             let missing = index.len() - first_missing;
-            return Err(truncated(
+            return Err(self.truncated(
                 file_len,
                 format!(
                     "{} bytes of tile data: level {level} tile ({tx}, {ty}) onwards ({missing} of {} tiles incomplete)",
@@ -707,27 +847,14 @@ impl Header {
         }
         if actual_len > file_len {
             return Err(DemError::Data {
-                path: p(),
+                path: self.path.to_path_buf(),
                 message: format!(
                     "{actual_len} bytes, but the header says {file_len}: {} unexpected bytes at the end (not this pyramid's file?)",
                     actual_len - file_len
                 ),
             });
         }
-        Ok(Header {
-            tile_size,
-            wraps,
-            encoding,
-            extents,
-            tile_data_offset,
-            file_len,
-            nan_count,
-            min_m,
-            max_m,
-            description,
-            levels,
-            index,
-        })
+        Ok(())
     }
 }
 

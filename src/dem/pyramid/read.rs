@@ -2,13 +2,11 @@
 
 use std::borrow::Cow;
 use std::fmt;
-use std::fs::File;
 use std::path::{Path, PathBuf};
-
-use memmap2::Mmap;
 
 use super::format::{Encoding, Extents, Header, LevelGeom, TileEntry};
 use crate::dem::DemError;
+use crate::dem::mapped::{MappedFile, OpenFile};
 use crate::dem::raster::GeoGrid;
 
 /// Reads the stored code of (level, plane, row, col); `None` when the tile holding it is not
@@ -164,8 +162,7 @@ pub struct VerifyReport {
 pub struct Pyramid {
     path: PathBuf,
     /// Kept open to re-check the length ([`Pyramid::check_length`]).
-    file: File,
-    map: Mmap,
+    map: MappedFile,
     header: Header,
     first_tile: Vec<usize>,
 }
@@ -188,12 +185,8 @@ impl Pyramid {
     /// [`Pyramid::tile_verified`] (one).
     pub fn open(path: impl AsRef<Path>) -> Result<Pyramid, DemError> {
         let path = path.as_ref().to_path_buf();
-        let io = |source| DemError::Io {
-            path: path.clone(),
-            source,
-        };
-        let file = File::open(&path).map_err(io)?;
-        let len = file.metadata().map_err(io)?.len();
+        let file = OpenFile::open(&path)?;
+        let len = file.len();
         if len == 0 {
             return Err(DemError::Truncated {
                 path,
@@ -202,15 +195,13 @@ impl Pyramid {
                 what: "everything: the file is empty".into(),
             });
         }
-        // SAFETY: the map is read-only and every access below is bounds-checked against the
-        // length validated here. The remaining risk is another process truncating the file in
-        // place while it is mapped (SIGBUS on access); see "SIGBUS" in the module docs.
-        let map = unsafe { Mmap::map(&file) }.map_err(io)?;
+        // Every access below is bounds-checked against the length validated here; see
+        // `crate::dem::mapped` for what remains (SIGBUS on a truncation in place).
+        let map = file.map()?;
         let header = Header::decode(&map, len, &path)?;
         let lay = super::format::layout(&header.levels, header.tile_size, header.description.len());
         Ok(Pyramid {
             path,
-            file,
             map,
             first_tile: lay.first_tile,
             header,
@@ -290,14 +281,7 @@ impl Pyramid {
     /// extended in place by another process). Cheap (one `fstat`); the streamer can call it
     /// before a batch of reads to narrow the SIGBUS window described in the module docs.
     pub fn check_length(&self) -> Result<(), DemError> {
-        let len = self
-            .file
-            .metadata()
-            .map_err(|source| DemError::Io {
-                path: self.path.clone(),
-                source,
-            })?
-            .len();
+        let len = self.map.current_len()?;
         let expected = self.header.file_len;
         if len < expected {
             return Err(DemError::Truncated {

@@ -1,0 +1,129 @@
+//! The one memory map of the elevation layer: every reader that maps a file (the pyramid, EHdr
+//! data files, netCDF-3 files) opens it here, so the `unsafe` call and its safety argument
+//! stand in one place (`dem` denies `unsafe_code` everywhere else).
+//!
+//! # Safety argument
+//!
+//! `Mmap::map` is `unsafe` because the slice it returns is only valid while nobody changes the
+//! file underneath it. What this crate relies on, and what it does about each risk:
+//!
+//! * **Read-only, private to its owner.** The map is never written and never handed out beyond
+//!   the borrow of its owner, so no Rust aliasing rule can be broken from inside the process.
+//! * **Truncation raises SIGBUS.** A mapped file that another process shrinks *in place* faults
+//!   on the next access past its new end; Rust cannot turn that into an error without a
+//!   process-wide signal handler, which this crate does not install. So:
+//!   - the length is measured ([`OpenFile::len`]) before mapping, callers validate it against
+//!     their header before a byte is read, and [`OpenFile::map`] checks that the map is as long
+//!     as that measured length;
+//!   - [`MappedFile::current_len`] (one `fstat`) re-checks it later; the pyramid does so before
+//!     every tile read;
+//!   - every access is bounds-checked against the validated length, never the header's word;
+//!   - files this crate writes are never truncated in place: the builder writes
+//!     `FILE.partial` and renames it, so a reader's mapping keeps the old inode alive.
+//!
+//!   What remains is a truncation in place racing an access between a check and the copy.
+//!   Replace such files by renaming; never truncate one that a viewer has open (README, "The
+//!   mmap SIGBUS risk").
+//! * **Contents changed in place without a size change** are not a memory-safety issue for
+//!   `&[u8]` reads of plain integers; the pyramid catches them with its tile CRCs.
+
+use std::fs::File;
+use std::ops::Deref;
+use std::path::{Path, PathBuf};
+
+use memmap2::Mmap;
+
+use super::DemError;
+
+/// A file opened for mapping, its length measured (one `fstat`) but nothing mapped yet, so the
+/// caller can validate the length against its header first.
+#[derive(Debug)]
+pub(crate) struct OpenFile {
+    path: PathBuf,
+    file: File,
+    len: u64,
+}
+
+impl OpenFile {
+    pub(crate) fn open(path: &Path) -> Result<OpenFile, DemError> {
+        let io = |source| DemError::Io {
+            path: path.to_path_buf(),
+            source,
+        };
+        let file = File::open(path).map_err(io)?;
+        let len = file.metadata().map_err(io)?.len();
+        Ok(OpenFile {
+            path: path.to_path_buf(),
+            file,
+            len,
+        })
+    }
+
+    /// The length measured at open, bytes.
+    pub(crate) fn len(&self) -> u64 {
+        self.len
+    }
+
+    /// Maps the file read-only. Fails if the map is not exactly as long as the length measured
+    /// at open (the file changed size in between).
+    pub(crate) fn map(self) -> Result<MappedFile, DemError> {
+        // SAFETY: read-only and private to the returned value; the remaining risk, a truncation
+        // in place by another process, is the one documented in this module's docs.
+        #[allow(unsafe_code)]
+        let map = unsafe { Mmap::map(&self.file) }.map_err(|source| DemError::Io {
+            path: self.path.clone(),
+            source,
+        })?;
+        if map.len() as u64 != self.len {
+            return Err(DemError::Data {
+                path: self.path,
+                message: format!(
+                    "changed size while being opened ({} bytes mapped, {} expected)",
+                    map.len(),
+                    self.len
+                ),
+            });
+        }
+        Ok(MappedFile {
+            path: self.path,
+            file: self.file,
+            map,
+        })
+    }
+}
+
+/// A read-only memory map of a whole file, as validated at open; dereferences to its bytes.
+/// The file stays open so that its length can be re-checked ([`MappedFile::current_len`]).
+pub(crate) struct MappedFile {
+    path: PathBuf,
+    file: File,
+    map: Mmap,
+}
+
+impl MappedFile {
+    /// Opens and maps `path` in one step, for readers with nothing to check before mapping.
+    pub(crate) fn open(path: &Path) -> Result<MappedFile, DemError> {
+        OpenFile::open(path)?.map()
+    }
+
+    /// The file's length now (one `fstat`): differs from the mapped length when another
+    /// process truncated or extended the file in place since it was mapped.
+    pub(crate) fn current_len(&self) -> Result<u64, DemError> {
+        Ok(self
+            .file
+            .metadata()
+            .map_err(|source| DemError::Io {
+                path: self.path.clone(),
+                source,
+            })?
+            .len())
+    }
+}
+
+impl Deref for MappedFile {
+    type Target = [u8];
+
+    fn deref(&self) -> &[u8] {
+        &self.map
+    }
+}
