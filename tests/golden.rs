@@ -43,9 +43,6 @@ const MAX_MEAN_CHANNEL_DIFF: f64 = 0.5;
 /// Environment variable that rewrites the goldens from the current renders.
 const BLESS_VAR: &str = "GLOBE_BLESS";
 
-/// Opacity of the heat map over the shading, as `globe render --overlay error` lays it.
-const ERROR_OVERLAY_OPACITY: f32 = 0.75;
-
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Overlay {
     None,
@@ -176,7 +173,7 @@ fn render(ctx: &GpuContext, scene: &str, settings: ClipmapSettings, overlay: Ove
     let mut frame = common::render(ctx, &mut r, &camera, WIDTH_PX, HEIGHT_PX);
     if overlay == Overlay::Error {
         let rho = globe::measure::rho_image(&frame, &camera, &r.terrain);
-        globe::measure::overlay_heat(&mut frame.rgba, &rho, ERROR_OVERLAY_OPACITY);
+        globe::measure::overlay_heat(&mut frame.rgba, &rho, globe::measure::ERROR_OVERLAY_OPACITY);
     }
     frame.rgba
 }

@@ -438,7 +438,7 @@ fn render(args: &RenderArgs) -> anyhow::Result<ExitCode> {
     }
     if args.overlay == Some(Overlay::Error) {
         let rho = globe::measure::rho_image(&frame, &camera, &renderer.terrain);
-        globe::measure::overlay_heat(&mut frame.rgba, &rho, 0.75);
+        globe::measure::overlay_heat(&mut frame.rgba, &rho, globe::measure::ERROR_OVERLAY_OPACITY);
     }
     frame
         .save_png(&args.out)

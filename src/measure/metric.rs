@@ -339,6 +339,9 @@ pub fn write_heat_map_png(
     })
 }
 
+/// Opacity of the heat map over the shading in `--overlay error` (and its golden image).
+pub const ERROR_OVERLAY_OPACITY: f32 = 0.75;
+
 /// Lays the heat map of `rho_px` over an RGBA8 frame (`--overlay error`): terrain pixels take
 /// the heat colour at `opacity` (0…1) over their shading, so relief stays readable; sky stays.
 pub fn overlay_heat(rgba: &mut [u8], rho_px: &[f32], opacity: f32) {

@@ -23,8 +23,8 @@ pub mod plot;
 pub mod reference;
 
 pub use metric::{
-    Coverage, DEFAULT_THRESHOLD_PX, ErrorStats, PixelError, evaluate, heat_rgb, measure_frame,
-    overlay_heat, pixel_error, rho_image, write_heat_map_png,
+    Coverage, DEFAULT_THRESHOLD_PX, ERROR_OVERLAY_OPACITY, ErrorStats, PixelError, evaluate,
+    heat_rgb, measure_frame, overlay_heat, pixel_error, rho_image, write_heat_map_png,
 };
 pub use reference::{
     ConstantHeight, HeightField, LocalBounds, PixelSet, RayCastOptions, RayCaster, RayHit,
