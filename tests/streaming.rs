@@ -1,5 +1,5 @@
 //! The DEM's streaming path: tiles from the pyramid through the tokio streamer, the LRU and
-//! the GPU tile cache into the level textures (issue 4).
+//! the GPU tile cache into the level textures.
 
 mod common;
 
@@ -248,6 +248,46 @@ fn a_jump_cancels_the_old_places_queued_tiles() {
 /// fails with an error naming the tile (retried, reported in the frame's stream state), the
 /// renderer keeps drawing the coarser levels and nothing panics. A file that grows under the
 /// map is caught by the length check before each read.
+/// Regression (issue 10): the camera's ground height is read from decoded tiles in the CPU
+/// cache, but a tile that sat on the GPU was never read again once the small LRU had evicted
+/// it, so a view returned to after a trip elsewhere waited for its camera tile forever (the
+/// `flight` test hung this way now and then under load). Garda → Everest → Garda with an LRU
+/// of 8 tiles and a GPU cache that keeps every tile: the return settles.
+#[test]
+fn issue_10_a_camera_tile_evicted_from_the_cpu_cache_is_read_again() {
+    let Some((ctx, _guard)) = common::gpu() else {
+        return;
+    };
+    let terrain = Terrain::embedded_earth().unwrap();
+    let stream = StreamSettings {
+        cache_bytes: 3 << 20,
+        ..StreamSettings::default()
+    };
+    let mut r = TerrainRenderer::with_streaming(
+        &ctx.device,
+        ClipmapSettings::default(),
+        terrain.clone(),
+        COLOR_FORMAT,
+        stream,
+    )
+    .unwrap();
+    let camera = |name: &str| {
+        Scene::by_name(name)
+            .unwrap()
+            .camera(|lat, lon| terrain.height_at_lat_lon_m(lat, lon))
+    };
+    let timeout = Duration::from_secs(30);
+    for name in ["ground", "everest", "ground"] {
+        let settled = r.settle(ctx, &camera(name), 320, 180, timeout);
+        let feed = &r.feed().expect("a DEM streams").last;
+        eprintln!(
+            "{name}: settled {settled}, cache {} of {} B, {} tiles loaded",
+            feed.cache_bytes, stream.cache_bytes, feed.stream.tiles_loaded
+        );
+        assert!(settled, "{name} did not settle within {timeout:?}");
+    }
+}
+
 #[test]
 fn corrupt_or_changed_pyramid_files_are_reported_not_fatal() {
     use std::io::{Seek, SeekFrom, Write};

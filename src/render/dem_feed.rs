@@ -158,16 +158,6 @@ impl DemFeed {
         f(&code)
     }
 
-    /// Starts a frame's CPU queries (see [`DemFeed::fell_back`]).
-    pub fn begin_frame(&self) {
-        self.fell_back.set(false);
-    }
-
-    /// True when the camera height since [`DemFeed::begin_frame`] lacked its tile.
-    pub fn fell_back(&self) -> bool {
-        self.fell_back.get()
-    }
-
     /// The terrain height at (lat, lon) from the finest level at hand (the finest level's tile
     /// is asked for first); sea level before anything has arrived.
     pub fn height_at_m(&self, lat_deg: f64, lon_deg: f64) -> f64 {
@@ -253,7 +243,10 @@ impl DemFeed {
             }
             per_level.push((params, tiles));
         }
-        for (k, p) in self.aux_missing.take() {
+        // Tiles the CPU queries (camera height, culling bounds) missed: they are needed decoded,
+        // in the LRU, even when a copy sits on the GPU (which the CPU cannot read).
+        let aux = self.aux_missing.take();
+        for (&k, &p) in &aux {
             needed
                 .entry(k)
                 .and_modify(|q| *q = (*q).min(p))
@@ -266,11 +259,13 @@ impl DemFeed {
         let mut missing: HashMap<TileKey, Priority> = HashMap::new();
         let mut to_upload: Vec<Arc<TileData>> = Vec::new();
         for &(p, k) in &order {
-            if self.gpu.touch(&k, frame) {
+            let on_gpu = self.gpu.touch(&k, frame);
+            if on_gpu && !aux.contains_key(&k) {
                 continue;
             }
             match self.cache.get(&k) {
-                Some(tile) => to_upload.push(tile),
+                Some(tile) if !on_gpu => to_upload.push(tile),
+                Some(_) => {}
                 None => {
                     missing.insert(k, p);
                 }
@@ -508,9 +503,9 @@ impl TerrainQuery for DemFeed {
         self.dem.height_range_m()
     }
     fn ground_m(&self, lat_deg: f64, lon_deg: f64) -> (f64, HeightSource) {
-        self.begin_frame();
+        self.fell_back.set(false);
         let h = self.height_at_m(lat_deg, lon_deg);
-        let source = if self.fell_back() {
+        let source = if self.fell_back.get() {
             HeightSource::CoarserTiles
         } else {
             HeightSource::Tiles
