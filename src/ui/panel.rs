@@ -9,6 +9,7 @@ use crate::clipmap::selection::LevelStatus;
 use crate::clipmap::settings::level_outer_theta_rad;
 use crate::clipmap::{ClipmapSettings, TransformForm};
 use crate::geo::camera::Camera;
+use crate::plan::HeightSource;
 use crate::render::FrameInfo;
 use crate::scenes::{CameraSpec, SCENES, Scene, VIEW_SYNTAX};
 
@@ -592,7 +593,16 @@ fn camera_section(ui: &mut egui::Ui, readout: &Readout<'_>) {
                 "above terrain",
                 format_length_m(c.altitude_m - readout.terrain_height_m),
             );
-            row("terrain", format_length_m(readout.terrain_height_m));
+            // Where the frame plan's ground height came from (a stand-in keeps it unsettled).
+            let source = readout.info.map_or("", |i| match i.ground_source {
+                HeightSource::Exact => " (exact)",
+                HeightSource::Tiles => " (streamed tiles)",
+                HeightSource::CoarserTiles => " (coarser tiles: finer ones on the way)",
+            });
+            row(
+                "terrain",
+                format!("{}{source}", format_length_m(readout.terrain_height_m)),
+            );
             row("heading", format!("{:.2}°", c.heading_deg));
             row("pitch", format!("{:.2}°", c.pitch_deg));
             row("roll", format!("{:.2}°", c.roll_deg));
@@ -731,7 +741,7 @@ mod tests {
             texels_filled: 0,
             near_m: 1.0,
             height_above_terrain_m: 10_000.0,
-            ground_source: crate::plan::HeightSource::Tiles,
+            ground_source: HeightSource::Tiles,
             sky_linear: [0.0; 3],
             stream: Some(Default::default()),
         };
