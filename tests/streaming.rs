@@ -244,10 +244,41 @@ fn a_jump_cancels_the_old_places_queued_tiles() {
     assert_eq!(first_new, vec![0, 1]);
 }
 
-/// A tile corrupted in place after the file was opened is caught by its checksum: the read
-/// fails with an error naming the tile (retried, reported in the frame's stream state), the
-/// renderer keeps drawing the coarser levels and nothing panics. A file that grows under the
-/// map is caught by the length check before each read.
+/// Regression (issue 10): a tile whose read finishes between a frame's `poll` and its `want`
+/// is not queued and read a second time (the `leave_out` tile counts jumped now and then).
+#[test]
+fn issue_10_a_finished_tile_is_not_requested_again_before_it_is_received() {
+    let source = Arc::new(Recording {
+        reads: Mutex::new(Vec::new()),
+        latency: Duration::ZERO,
+    });
+    let streamer = TileStreamer::new(source.clone(), &StreamSettings::default()).unwrap();
+    let key = TileKey {
+        level: 0,
+        tx: 3,
+        ty: 1,
+    };
+    let wanted = HashMap::from([(key, 0)]);
+    streamer.want(&wanted);
+    // The read finishes; its completion waits in the channel.
+    let deadline = Instant::now() + Duration::from_secs(10);
+    while source.reads.lock().unwrap().is_empty() || streamer.stats().in_flight > 0 {
+        assert!(Instant::now() < deadline, "the read never finished");
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    // The render thread has not polled yet and still lacks the tile.
+    streamer.want(&wanted);
+    std::thread::sleep(Duration::from_millis(50));
+    assert_eq!(streamer.stats().tiles_requested, 1);
+    assert_eq!(source.reads.lock().unwrap().len(), 1, "read twice");
+    let done = streamer.poll();
+    assert_eq!(done.len(), 1);
+    assert_eq!(done[0].key(), key);
+    // Received: asking again (say, after the cache dropped it) is a new request.
+    streamer.want(&wanted);
+    assert_eq!(streamer.stats().tiles_requested, 2);
+}
+
 /// Regression (issue 10): the camera's ground height is read from decoded tiles in the CPU
 /// cache, but a tile that sat on the GPU was never read again once the small LRU had evicted
 /// it, so a view returned to after a trip elsewhere waited for its camera tile forever (the
@@ -288,6 +319,10 @@ fn issue_10_a_camera_tile_evicted_from_the_cpu_cache_is_read_again() {
     }
 }
 
+/// A tile corrupted in place after the file was opened is caught by its checksum: the read
+/// fails with an error naming the tile (retried, reported in the frame's stream state), the
+/// renderer keeps drawing the coarser levels and nothing panics. A file that grows under the
+/// map is caught by the length check before each read.
 #[test]
 fn corrupt_or_changed_pyramid_files_are_reported_not_fatal() {
     use std::io::{Seek, SeekFrom, Write};

@@ -8,7 +8,7 @@
 //! `max_in_flight` are running; reads run on the blocking pool (the source may block on I/O or
 //! injected latency) and failed reads are retried with exponential back-off, then reported.
 
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, mpsc};
 use std::time::{Duration, Instant};
@@ -26,6 +26,15 @@ pub enum Completion {
     Failed(TileKey, TileError),
     /// Dropped between attempts because the view no longer wanted it.
     Cancelled(TileKey),
+}
+
+impl Completion {
+    pub fn key(&self) -> TileKey {
+        match self {
+            Self::Loaded(tile) => tile.key,
+            Self::Failed(key, _) | Self::Cancelled(key) => *key,
+        }
+    }
 }
 
 /// Counters since the streamer started (cumulative) and gauges (now).
@@ -56,6 +65,10 @@ struct Request {
 struct Queue {
     queued: HashMap<TileKey, Request>,
     in_flight: HashMap<TileKey, Arc<AtomicBool>>,
+    /// Finished requests whose completion the render thread has not received yet: `want`
+    /// must not queue them again (a tile that arrives between a frame's `poll` and its `want`
+    /// would otherwise be read twice).
+    unpolled: HashSet<TileKey>,
     closed: bool,
 }
 
@@ -137,7 +150,7 @@ impl TileStreamer {
         }
         let mut added = 0;
         for (&key, &priority) in wanted {
-            if q.in_flight.contains_key(&key) {
+            if q.in_flight.contains_key(&key) || q.unpolled.contains(&key) {
                 continue;
             }
             q.queued
@@ -163,12 +176,27 @@ impl TileStreamer {
 
     /// What has finished since the last call (never blocks).
     pub fn poll(&self) -> Vec<Completion> {
-        self.completions.try_iter().collect()
+        let done: Vec<Completion> = self.completions.try_iter().collect();
+        self.received(&done);
+        done
     }
 
     /// Waits up to `timeout` for the next completion (the headless renderer waiting for data).
     pub fn wait(&self, timeout: Duration) -> Option<Completion> {
-        self.completions.recv_timeout(timeout).ok()
+        let done = self.completions.recv_timeout(timeout).ok();
+        self.received(done.as_slice());
+        done
+    }
+
+    /// The render thread has these completions: their tiles may be asked for again.
+    fn received(&self, done: &[Completion]) {
+        if done.is_empty() {
+            return;
+        }
+        let mut q = self.shared.lock();
+        for d in done {
+            q.unpolled.remove(&d.key());
+        }
     }
 
     /// Nothing queued and nothing in flight.
@@ -232,7 +260,11 @@ async fn dispatch(
         let (shared, source, tx) = (shared.clone(), source.clone(), tx.clone());
         tokio::spawn(async move {
             let done = fetch(&shared, source, key, &cancel, &settings).await;
-            shared.lock().in_flight.remove(&key);
+            {
+                let mut q = shared.lock();
+                q.in_flight.remove(&key);
+                q.unpolled.insert(key);
+            }
             let _ = tx.send(done);
             drop(permit);
         });
