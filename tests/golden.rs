@@ -312,21 +312,17 @@ fn everest_coarse_error_overlay() {
 /// Every named scene has a golden test above (a scene added to the registry must add one).
 #[test]
 fn every_named_scene_has_a_golden() {
-    let covered = [
-        "space",
-        "aircraft",
-        "ground",
-        "north-pole",
-        "antimeridian",
-        "everest",
-    ];
-    for scene in globe::scenes::SCENES {
-        assert!(
-            covered.contains(&scene.name),
-            "scene {} has no golden test in tests/golden.rs",
-            scene.name
-        );
-    }
+    common::assert_covers_every_scene(
+        &[
+            "space",
+            "aircraft",
+            "ground",
+            "north-pole",
+            "antimeridian",
+            "everest",
+        ],
+        "tests/golden.rs",
+    );
 }
 
 /// The comparison itself, without a GPU: it fails when it should and the diff marks exactly

@@ -328,15 +328,15 @@ fn everest_leaves_out_what_it_does_not_need() {
 /// Every named scene has its test above.
 #[test]
 fn every_scene_is_covered() {
-    let covered = [
-        "space",
-        "aircraft",
-        "ground",
-        "north-pole",
-        "antimeridian",
-        "everest",
-    ];
-    for scene in globe::scenes::SCENES {
-        assert!(covered.contains(&scene.name), "no test for {}", scene.name);
-    }
+    common::assert_covers_every_scene(
+        &[
+            "space",
+            "aircraft",
+            "ground",
+            "north-pole",
+            "antimeridian",
+            "everest",
+        ],
+        "tests/leave_out.rs",
+    );
 }

@@ -73,3 +73,15 @@ pub fn surface_point_view(
     let p_cam = projection::camera_point_from_ndc(&camera_from_clip, ndc);
     Some(DVec3::new(0.0, 0.0, radius_m + camera.altitude_m) + camera.view_from_camera() * p_cam)
 }
+
+/// Fails unless every named scene is in `covered`: a scene added to the registry must add its
+/// test to `file` too.
+pub fn assert_covers_every_scene(covered: &[&str], file: &str) {
+    for scene in globe::scenes::SCENES {
+        assert!(
+            covered.contains(&scene.name),
+            "scene {} has no test in {file}",
+            scene.name
+        );
+    }
+}
