@@ -7,7 +7,7 @@
 //! | [`ViewPlan`] | what every LOD method shares: the viewer in map space (φv, θv), the ground under the camera and where that height came from, near plane, projection, sun, sky | here |
 //! | a LOD method's plan | what that method draws and fills: for the spherical clipmap ([`ClipmapPlan`]) the levels and why, each level's texture window and the texels to refill, the ring sectors inside the frustum, the levels waiting for data | [`clipmap`] |
 //!
-//! [`FramePlan`] holds both. Nothing here touches wgpu: tests build plans on a machine with no
+//! A frame's plan is one of each. Nothing here touches wgpu: tests build plans on a machine with no
 //! adapter. `render::gpu_data` is the one step that turns a plan into f32 GPU data, and the
 //! renderer only executes it (fills, uploads, draws). A close-up LOD method (geomipmapping, the
 //! projected grid) adds its own plan beside `clipmap`, built from the same [`ViewPlan`] and
@@ -155,19 +155,4 @@ fn sky_colour(altitude_m: f64) -> [f64; 3] {
     let low = [0.30, 0.50, 0.80];
     let high = [0.002, 0.002, 0.006];
     std::array::from_fn(|i| low[i] + (high[i] - low[i]) * t)
-}
-
-/// A whole frame's plan: the shared view and each LOD method's part.
-#[derive(Clone, Debug)]
-pub struct FramePlan {
-    pub view: ViewPlan,
-    pub clipmap: ClipmapPlan,
-}
-
-impl FramePlan {
-    /// True when the plan used no stand-in data: every wanted level holds its window and the
-    /// camera's height came from its own tiles.
-    pub fn settled(&self) -> bool {
-        self.view.ground_source != HeightSource::CoarserTiles && self.clipmap.waiting().is_empty()
-    }
 }
