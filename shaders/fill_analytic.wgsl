@@ -1,5 +1,6 @@
 // Fills a rectangle of a clipmap level texture from the analytic test planet (compute).
-// Rust twin: terrain::analytic::AnalyticPlanet::height_band_limited_m (f64).
+// Rust twin: terrain::analytic::AnalyticPlanet::height_band_limited_m (f64); the procedural
+// detail (common/detail_fill.wgsl) is added on top.
 //
 // Each wave's phase ω·(u·a) is far too large for f32, so it is evaluated relative to the
 // rectangle's first grid point u_r: the CPU gives sin/cos of the phase there, the GPU adds
@@ -30,39 +31,12 @@ struct FillParams {
 @group(0) @binding(0) var<uniform> params: FillParams;
 @group(0) @binding(1) var out_heights: texture_storage_2d_array<r32float, write>;
 
-// sin(a + d) − sin a and cos(a + d) − cos a without cancellation: −2 sin²(d/2) terms.
-fn delta_sin(s: f32, c: f32, d: f32) -> f32 {
-    let h = sin(0.5 * d);
-    return -2.0 * s * h * h + c * sin(d);
-}
-fn delta_cos(s: f32, c: f32, d: f32) -> f32 {
-    let h = sin(0.5 * d);
-    return -2.0 * c * h * h - s * sin(d);
-}
-
-// u(θr + dθ, φr + dφ) − u(θr, φr), u = (sin θ cos φ, sin θ sin φ, cos θ).
-fn delta_unit(dphi: f32, dtheta: f32) -> vec3<f32> {
-    let st = params.ref_trig.x;
-    let ct = params.ref_trig.y;
-    let sp = params.ref_trig.z;
-    let cp = params.ref_trig.w;
-    let d_st = delta_sin(st, ct, dtheta);
-    let d_ct = delta_cos(st, ct, dtheta);
-    let d_sp = delta_sin(sp, cp, dphi);
-    let d_cp = delta_cos(sp, cp, dphi);
-    return vec3<f32>(
-        st * d_cp + d_st * cp + d_st * d_cp,
-        st * d_sp + d_st * sp + d_st * d_sp,
-        d_ct,
-    );
-}
-
 @compute @workgroup_size(WORKGROUP_SIZE, WORKGROUP_SIZE, 1)
 fn cs_main(@builtin(global_invocation_id) id: vec3<u32>) {
     if id.x >= params.extent.x || id.y >= params.extent.y {
         return;
     }
-    let du = delta_unit(f32(id.x) * params.spacing.x, f32(id.y) * params.spacing.y);
+    let du = delta_unit_from(params.ref_trig, f32(id.x) * params.spacing.x, f32(id.y) * params.spacing.y);
     var h = 0.0;
     for (var k = 0u; k < ANALYTIC_SCALES; k++) {
         let w = params.waves[k];
@@ -77,5 +51,6 @@ fn cs_main(@builtin(global_invocation_id) id: vec3<u32>) {
         h += w.omega_a.w * sa * sb;
     }
     let slot = (params.slot0 + id.xy) % vec2<u32>(params.size);
+    h += detail_texel(id.xy, slot, params.layer);
     textureStore(out_heights, slot, params.layer, vec4<f32>(h, 0.0, 0.0, 0.0));
 }

@@ -1,7 +1,8 @@
 // Fills a rectangle of a clipmap level texture from the GPU tile cache of a DEM pyramid
 // (compute). Rust twin: terrain::dem::DemTerrain::sample_m (f64): bilinear between pixel
 // centres, longitude wrapping (global grids) or sea level outside the extents (regional ones),
-// rows clamped at the edges, and the pole caps (blend from the outermost row to its mean).
+// rows clamped at the edges, and the pole caps (blend from the outermost row to its mean);
+// the procedural detail (common/detail_fill.wgsl) is added on top.
 //
 // Pixel coordinates are linear in the grid indices within one job (the CPU splits rectangles
 // at the poles, where rows fold back), so they are passed as an integer base, a fraction
@@ -107,5 +108,6 @@ fn cs_main(@builtin(global_invocation_id) id: vec3<u32>) {
         }
     }
     let slot = (params.slot0 + id.xy) % vec2<u32>(params.size);
+    h += detail_texel(id.xy, slot, params.layer);
     textureStore(out_heights, slot, params.layer, vec4<f32>(h, 0.0, 0.0, 0.0));
 }

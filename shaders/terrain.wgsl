@@ -28,6 +28,8 @@ struct FrameUniforms {
     eye_height_lo_m: f32,
     _pad1: u32,
     _pad2: u32,
+    // λ(θ̃) = clamp(x − ln θ̃ · y, 0, z): the detail octaves geometry holds (0: no detail).
+    detail_lambda: vec4<f32>,
 }
 
 // Rust twin: render::gpu_data::LevelUniforms.
@@ -38,7 +40,8 @@ struct LevelUniforms {
     inv_dphi: f32,
     inv_dtheta: f32,
     dtheta_rad: f32,
-    _pad0: f32,
+    // Index of the level's first partial octave (the whole ones are in its heights).
+    detail_full: u32,
     _pad1: f32,
     _pad2: f32,
 }
@@ -65,15 +68,25 @@ struct VertexOut {
 @group(0) @binding(0) var<uniform> frame: FrameUniforms;
 @group(0) @binding(1) var<uniform> levels: array<LevelUniforms, MAX_LEVELS>;
 @group(0) @binding(2) var heights: texture_2d_array<f32>;
+// σ·t_k of each level's partial octaves (common/detail_fill.wgsl), weighted here by λ(θ̃).
+@group(0) @binding(3) var partials: texture_2d_array<f32>;
 
 fn wrap_texel(i: i32) -> i32 {
     let s = i32(frame.texture_size);
     return ((i % s) + s) % s;
 }
 
-// Bilinear height of level `level` at map offset d = (Δφ, Δθ) from the viewer. Manual
-// filtering in f32 (hardware filtering quantises the weights to 8 bits, visible up close).
-fn level_height(level: u32, d: vec2<f32>) -> f32 {
+// λ(θ̃): how many detail octaves geometry holds at view angle θ̃ from the viewer
+// (procedural::Detail::lambda_at_angle).
+fn detail_lambda(theta_tilde: f32) -> f32 {
+    let c = frame.detail_lambda;
+    return clamp(c.x - log(max(theta_tilde, 1e-30)) * c.y, 0.0, c.z);
+}
+
+// Bilinear height of level `level` at map offset d = (Δφ, Δθ) from the viewer, with its
+// partial detail octaves weighted by λ (w_k = clamp(λ − k, 0, 1)). Manual filtering in f32
+// (hardware filtering quantises the weights to 8 bits, visible up close).
+fn level_height(level: u32, d: vec2<f32>, lambda: f32) -> f32 {
     let g = levels[level];
     let x = d.x * g.inv_dphi + g.grid_x_viewer;
     let y = d.y * g.inv_dtheta + g.grid_y_viewer;
@@ -90,17 +103,27 @@ fn level_height(level: u32, d: vec2<f32>) -> f32 {
     let h10 = textureLoad(heights, vec2<i32>(ix1, iy0), layer, 0).x;
     let h01 = textureLoad(heights, vec2<i32>(ix0, iy1), layer, 0).x;
     let h11 = textureLoad(heights, vec2<i32>(ix1, iy1), layer, 0).x;
-    return mix(mix(h00, h10, fx), mix(h01, h11, fx), fy);
+    let h = mix(mix(h00, h10, fx), mix(h01, h11, fx), fy);
+    let k0 = f32(levels[level].detail_full);
+    let w = clamp(vec4<f32>(lambda) - (vec4<f32>(k0) + vec4<f32>(0.0, 1.0, 2.0, 3.0)), vec4<f32>(0.0), vec4<f32>(1.0));
+    if all(w == vec4<f32>(0.0)) {
+        return h;
+    }
+    let p00 = textureLoad(partials, vec2<i32>(ix0, iy0), layer, 0);
+    let p10 = textureLoad(partials, vec2<i32>(ix1, iy0), layer, 0);
+    let p01 = textureLoad(partials, vec2<i32>(ix0, iy1), layer, 0);
+    let p11 = textureLoad(partials, vec2<i32>(ix1, iy1), layer, 0);
+    return h + dot(w, mix(mix(p00, p10, fx), mix(p01, p11, fx), fy));
 }
 
 // Height of a point of level `level`, blended by `coarse_blend` into the next coarser level so
 // that a level's outer ring equals the coarser level's inner ring exactly (no cracks).
-fn terrain_height(level: u32, d: vec2<f32>, coarse_blend: f32) -> f32 {
-    let fine = level_height(level, d);
+fn terrain_height(level: u32, d: vec2<f32>, coarse_blend: f32, lambda: f32) -> f32 {
+    let fine = level_height(level, d, lambda);
     if coarse_blend <= 0.0 {
         return fine;
     }
-    return mix(fine, level_height(level - 1u, d), coarse_blend);
+    return mix(fine, level_height(level - 1u, d, lambda), coarse_blend);
 }
 
 // Weight of the next coarser level: 1 on the level's outer ring, 0 from `blend_fraction` of the
@@ -142,7 +165,7 @@ fn map_transform(p_tilde: vec3<f32>, seam_side: f32, level: u32, ring_t: f32) ->
 fn vs_main(v: RingVertex) -> VertexOut {
     let d = map_transform(v.p_tilde, v.seam_side, v.level, v.ring_t);
     let blend = coarse_blend_weight(v.level, v.ring_t);
-    let h = terrain_height(v.level, d, blend);
+    let h = terrain_height(v.level, d, blend, detail_lambda(v.theta_tilde_rad));
     // Position relative to the eye in view space: the eye is at (0, 0, R + h_eye).
     // z = (h − h_eye) − (R + h)·(1 − cos θ̃) (DESIGN.md), with 1 − cos θ̃ from f64.
     let r = frame.radius_m + h;
@@ -160,9 +183,9 @@ fn vs_main(v: RingVertex) -> VertexOut {
     return out;
 }
 
-fn height_at_direction(level: u32, u: vec3<f32>, coarse_blend: f32) -> f32 {
+fn height_at_direction(level: u32, u: vec3<f32>, coarse_blend: f32, lambda: f32) -> f32 {
     let d = map_transform_stable(frame.transform, u, 0.0);
-    return terrain_height(level, d, coarse_blend);
+    return terrain_height(level, d, coarse_blend, lambda);
 }
 
 // Hypsometric tint: bathymetry blues, lowland greens, upland browns, rock, snow.
@@ -208,11 +231,12 @@ fn level_colour(level: u32) -> vec3<f32> {
 fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
     let level = in.level;
     let blend = clamp(in.coarse_blend, 0.0, 1.0);
-    let h = terrain_height(level, in.map_pos, blend);
+    let u = normalize(in.p_tilde);
+    let lambda = detail_lambda(atan2(length(u.xy), u.z));
+    let h = terrain_height(level, in.map_pos, blend, lambda);
 
     // Normal: central differences along two tangents of the unit sphere at the fragment,
     // one texel apart. n ∝ (R+h)·u − ∂h/∂e1·e1 − ∂h/∂e2·e2 for unit angular offsets.
-    let u = normalize(in.p_tilde);
     var axis = vec3<f32>(0.0, 0.0, 1.0);
     if abs(u.z) > 0.9 {
         axis = vec3<f32>(1.0, 0.0, 0.0);
@@ -220,10 +244,10 @@ fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
     let e1 = normalize(cross(axis, u));
     let e2 = cross(u, e1);
     let eps = levels[level].dtheta_rad;
-    let h1p = height_at_direction(level, normalize(u + eps * e1), blend);
-    let h1m = height_at_direction(level, normalize(u - eps * e1), blend);
-    let h2p = height_at_direction(level, normalize(u + eps * e2), blend);
-    let h2m = height_at_direction(level, normalize(u - eps * e2), blend);
+    let h1p = height_at_direction(level, normalize(u + eps * e1), blend, lambda);
+    let h1m = height_at_direction(level, normalize(u - eps * e1), blend, lambda);
+    let h2p = height_at_direction(level, normalize(u + eps * e2), blend, lambda);
+    let h2m = height_at_direction(level, normalize(u - eps * e2), blend, lambda);
     let g1 = (h1p - h1m) / (2.0 * eps);
     let g2 = (h2p - h2m) / (2.0 * eps);
     let n = normalize((frame.radius_m + h) * u - g1 * e1 - g2 * e2);

@@ -702,7 +702,7 @@ pub fn run_jump(
     options: &JumpOptions,
     mut progress: impl FnMut(&str),
 ) -> Result<JumpRun, BenchError> {
-    let Terrain::Dem(dem) = terrain else {
+    let Some(dem) = terrain.dem() else {
         return Err(BenchError::JumpNeedsDem);
     };
     let to = scenes::find(JUMP_TO)?;

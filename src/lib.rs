@@ -24,6 +24,7 @@ pub mod dem;
 pub mod geo;
 pub mod measure;
 pub mod plan;
+pub mod procedural;
 pub mod progress;
 pub mod render;
 pub mod report;

@@ -111,7 +111,7 @@ fn check_scene(name: &str) {
         return;
     };
     let terrain = Terrain::embedded_earth().expect("embedded Earth");
-    let Terrain::Dem(dem) = &terrain else {
+    let Some(dem) = terrain.dem() else {
         unreachable!("the embedded Earth is a DEM")
     };
     let pyramid = dem.pyramid().info();

@@ -18,7 +18,7 @@ fn gpu_fill_from_tiles_matches_the_cpu_sampler() {
         return;
     };
     let terrain = Terrain::embedded_earth().unwrap();
-    let Terrain::Dem(dem) = terrain.clone() else {
+    let Some(dem) = terrain.dem().cloned() else {
         unreachable!()
     };
     for name in ["aircraft", "north-pole", "antimeridian"] {
@@ -332,7 +332,7 @@ fn corrupt_or_changed_pyramid_files_are_reported_not_fatal() {
     let Some((ctx, _guard)) = common::gpu() else {
         return;
     };
-    let Terrain::Dem(dem) = Terrain::embedded_earth().unwrap() else {
+    let Some(dem) = Terrain::embedded_earth().unwrap().dem().cloned() else {
         unreachable!()
     };
     let dir = tempfile::tempdir().unwrap();
@@ -362,7 +362,7 @@ fn corrupt_or_changed_pyramid_files_are_reported_not_fatal() {
     let mut r = TerrainRenderer::with_streaming(
         &ctx.device,
         ClipmapSettings::default(),
-        Terrain::Dem(copy.clone()),
+        Terrain::dem_terrain(copy.clone()),
         COLOR_FORMAT,
         stream,
     )

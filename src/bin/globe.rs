@@ -8,6 +8,7 @@ use anyhow::{Context, bail};
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use globe::clipmap::selection::LevelStatus;
 use globe::clipmap::{ClipmapSettings, TransformForm};
+use globe::procedural::DetailSpec;
 use globe::progress::Progress;
 use globe::render::offscreen::{COLOR_FORMAT, OffscreenFrame};
 use globe::render::{GpuContext, TerrainRenderer};
@@ -133,6 +134,10 @@ struct DemArgs {
     /// first (a folder of GTOPO30-style tiles, one .HDR/.DEM, or a netCDF-3 file such as ETOPO5).
     #[arg(long, value_name = "SOURCE", default_value = "embedded")]
     dem: String,
+    /// Procedural detail below the data's resolution: `default` (on), `off`, or a detail
+    /// parameter file (JSON; README "Procedural detail" lists the fields and their ranges).
+    #[arg(long, value_name = "off|default|FILE", default_value = "default")]
+    detail: DetailSpec,
 }
 
 impl DemArgs {
@@ -151,7 +156,8 @@ impl DemArgs {
         if let Some(p) = progress {
             p.finish();
         }
-        Ok(terrain)
+        let params = self.detail.params()?;
+        Ok(terrain.with_detail(params))
     }
 }
 

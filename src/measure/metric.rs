@@ -100,7 +100,8 @@ fn error_at<H: HeightField + ?Sized>(
 ) -> PixelError {
     let r = point_view_m.length();
     let height_m = r - field.radius_m();
-    let true_height_m = field.height_m(world_from_view * (point_view_m / r));
+    let viewer_u = world_from_view * DVec3::Z;
+    let true_height_m = field.height_seen_m(world_from_view * (point_view_m / r), viewer_u);
     let delta_m = (height_m - true_height_m).abs();
     let distance_m = (point_view_m - eye_view_m).length();
     PixelError {

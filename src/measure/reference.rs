@@ -52,7 +52,7 @@ use glam::{DMat3, DVec3};
 use crate::dem::pyramid::Region;
 use crate::geo::camera::{Camera, pixel_ray_view};
 use crate::geo::sphere;
-use crate::terrain::{AnalyticPlanet, DemTerrain, Terrain};
+use crate::terrain::{AnalyticPlanet, Base, DemTerrain, Terrain};
 
 /// Largest cap the march asks bounds for (≈ 320 km on Earth): larger caps over real relief
 /// give bounds as loose as the global range, which the shell already uses.
@@ -90,6 +90,19 @@ pub trait HeightField: Sync {
     /// Cap angle below which [`HeightField::local_bounds`] gets no tighter (a DEM's finest
     /// pixel); 0 when it keeps tightening.
     fn finest_bound_angle_rad(&self) -> f64;
+
+    /// The terrain function as geometry seen from a viewer above `viewer_u` (what the
+    /// reference and the metric compare against): for a terrain with procedural detail, only
+    /// the octaves geometry holds at that distance (`procedural` module docs). By default the
+    /// same as [`HeightField::height_m`].
+    fn height_seen_m(&self, u_world: DVec3, _viewer_u: DVec3) -> f64 {
+        self.height_m(u_world)
+    }
+
+    /// Bounds of [`HeightField::height_seen_m`] over a cap.
+    fn local_bounds_seen(&self, u_world: DVec3, angle_rad: f64, _viewer_u: DVec3) -> LocalBounds {
+        self.local_bounds(u_world, angle_rad)
+    }
 }
 
 impl HeightField for Terrain {
@@ -106,17 +119,93 @@ impl HeightField for Terrain {
     }
 
     fn local_bounds(&self, u_world: DVec3, angle_rad: f64) -> LocalBounds {
-        match self {
-            Terrain::Analytic(p) => analytic_bounds(p, u_world, angle_rad),
-            Terrain::Dem(d) => dem_bounds(d, u_world, angle_rad),
+        let base = base_bounds(self, u_world, angle_rad);
+        match self.detail() {
+            None => base,
+            Some(d) => {
+                let lambda = d.lambda_full();
+                let (b, slope) = d.bounds_near(u_world, angle_rad, lambda);
+                LocalBounds {
+                    min_m: base.min_m - b,
+                    max_m: base.max_m + b,
+                    slope_max: base.slope_max + slope,
+                }
+            }
+        }
+    }
+
+    fn height_seen_m(&self, u_world: DVec3, viewer_u: DVec3) -> f64 {
+        self.height_for_viewer_m(u_world, viewer_u)
+    }
+
+    /// The detail's bounds for the octaves seen anywhere in the cap (λ at its point nearest
+    /// the viewer), plus the slope of λ's own change with distance: where an octave fades in,
+    /// ∂/∂s Σ w_k t_k = t_⌊λ⌋·∂λ/∂s with |∂λ/∂s| = 1/(s·ln r) (none where λ is clamped at n,
+    /// within κ⁻¹ of the floor's cell of the viewer). |t_⌊λ(s)⌋|/s ≤ a_⌊λ(s)⌋·m/s is largest
+    /// at the cap's nearest point (a_k/s_k grows as r^{k(1−H)} with H ≤ 1).
+    fn local_bounds_seen(&self, u_world: DVec3, angle_rad: f64, viewer_u: DVec3) -> LocalBounds {
+        let base = base_bounds(self, u_world, angle_rad);
+        let Some(d) = self.detail() else {
+            return base;
+        };
+        let arc = sphere::great_circle_distance_m(u_world, viewer_u, 1.0);
+        let r = d.radius_m();
+        let arc_min_m = (arc - angle_rad).max(0.0) * r;
+        let arc_max_m = (arc + angle_rad) * r;
+        let lambda_hi = d.lambda_at_arc_m(arc_min_m);
+        let lambda_lo = d.lambda_at_arc_m(arc_max_m);
+        let (d_lo, d_hi, slope) = d.bounds_near_tight(u_world, angle_rad, lambda_hi);
+        let fade_slope = if lambda_lo >= d.lambda_full() || d.octave_count() == 0 {
+            0.0
+        } else {
+            let p = d.params();
+            let floor_cell = d.octaves().last().map_or(0.0, |o| o.cell_m);
+            let s_eff = arc_min_m.max(floor_cell / p.geometry_cut);
+            let k = (lambda_hi.floor() as usize).min(d.octave_count() - 1);
+            let (_, relief, _) = d.roughness().bounds_near(u_world, angle_rad);
+            let sigma = d.amplitude_for_relief_m(relief);
+            sigma * (1.0 + p.height_roughness) * d.octaves()[k].amplitude
+                / (s_eff * p.lacunarity.ln())
+        };
+        let base = tighten(base, self.base_height_m(u_world), angle_rad * r);
+        LocalBounds {
+            min_m: base.min_m + d_lo,
+            max_m: base.max_m + d_hi,
+            slope_max: base.slope_max + slope + fade_slope,
         }
     }
 
     fn finest_bound_angle_rad(&self) -> f64 {
-        match self {
-            Terrain::Analytic(_) => 0.0,
-            Terrain::Dem(d) => d.pyramid().grid(0).dlat_deg.to_radians(),
+        if let Some(d) = self.detail() {
+            // The detail's bounds tighten down to its floor, and the base's with them
+            // (centre ± slope × radius).
+            return d.params().floor_m / d.radius_m();
         }
+        match self.base() {
+            Base::Analytic(_) => 0.0,
+            Base::Dem(d) => d.pyramid().grid(0).dlat_deg.to_radians(),
+        }
+    }
+}
+
+/// Bounds of a field with slope bound L over a cap of radius ρ metres around a point of
+/// height h: also within h ± L·ρ (tighter than min/max planes on caps smaller than a pixel).
+fn tighten(b: LocalBounds, centre_m: f64, radius_m: f64) -> LocalBounds {
+    if !b.slope_max.is_finite() {
+        return b;
+    }
+    let spread = b.slope_max * radius_m * 1.000_001 + 1e-9;
+    LocalBounds {
+        min_m: b.min_m.max(centre_m - spread),
+        max_m: b.max_m.min(centre_m + spread),
+        slope_max: b.slope_max,
+    }
+}
+
+fn base_bounds(t: &Terrain, u_world: DVec3, angle_rad: f64) -> LocalBounds {
+    match t.base() {
+        Base::Analytic(p) => analytic_bounds(p, u_world, angle_rad),
+        Base::Dem(d) => dem_bounds(d, u_world, angle_rad),
     }
 }
 
@@ -365,6 +454,8 @@ pub struct RayCaster<'a, H: HeightField + ?Sized> {
     /// Rows of camera_from_view (the transpose of the rotation view_from_camera).
     camera_from_view: DMat3,
     world_from_view: DMat3,
+    /// The viewer's direction in world space (view space +z).
+    viewer_u: DVec3,
     /// Focal length in pixels: pixels per radian at the image centre.
     focal_px: f64,
     radius_m: f64,
@@ -387,6 +478,7 @@ impl<'a, H: HeightField + ?Sized> RayCaster<'a, H> {
             eye_view_m: camera.eye_view_at_radius_m(radius_m),
             camera_from_view: camera.view_from_camera().transpose(),
             world_from_view: camera.view_frame().world_from_view,
+            viewer_u: camera.view_frame().world_from_view * DVec3::Z,
             focal_px: 0.5 * f64::from(height.max(1)) / (0.5 * camera.fov_y_rad()).tan(),
             radius_m,
             shell_top_m: radius_m + hi_m + SHELL_MARGIN_M,
@@ -503,7 +595,10 @@ impl<'a, H: HeightField + ?Sized> RayCaster<'a, H> {
     /// Clearance of view-space point `p` above the terrain: |p| − R − h(p/|p|).
     fn clearance_m(&self, p: DVec3) -> f64 {
         let r = p.length();
-        r - self.radius_m - self.field.height_m(self.world_from_view * (p / r))
+        r - self.radius_m
+            - self
+                .field
+                .height_seen_m(self.world_from_view * (p / r), self.viewer_u)
     }
 
     /// The distance to the first crossing along the unit ray `d`, or None (sky). See the
@@ -545,7 +640,11 @@ impl<'a, H: HeightField + ?Sized> RayCaster<'a, H> {
                     let c = Cap {
                         alpha_rad: a,
                         end_t: t + cap_exit_m(u, r, d, a),
-                        bounds: self.field.local_bounds(self.world_from_view * u, a),
+                        bounds: self.field.local_bounds_seen(
+                            self.world_from_view * u,
+                            a,
+                            self.viewer_u,
+                        ),
                     };
                     cap = Some(c);
                     c
@@ -568,14 +667,20 @@ impl<'a, H: HeightField + ?Sized> RayCaster<'a, H> {
                     continue;
                 }
             }
-            let f = r - self.radius_m - self.field.height_m(self.world_from_view * u);
+            let f = r
+                - self.radius_m
+                - self
+                    .field
+                    .height_seen_m(self.world_from_view * u, self.viewer_u);
             if f <= 0.0 {
                 return Some(t);
             }
             // A cap much wider than a Lipschitz step can reach: try a smaller one first.
             let alpha_fit = alpha_min.max(2.0 * f / self.shell_bottom_m);
             if c.alpha_rad > 2.0 * alpha_fit {
-                alpha = (c.alpha_rad / 4.0).max(alpha_fit);
+                // Straight to the fitting cap: each bounds query costs a pyramid and a relief
+                // lookup, and a rough surface's tight bounds only come with a small cap.
+                alpha = alpha_fit;
                 cap = None;
                 continue;
             }

@@ -24,7 +24,10 @@ use crate::stream::{
 };
 use crate::terrain::DemTerrain;
 
+use crate::procedural::Detail;
+
 use super::RenderError;
+use super::detail::DetailResources;
 use super::fill::band_limit_texel_m;
 use super::gpu_data::{DemFillJob, DemFillParams};
 use super::tiles::{DemFillPass, GpuTileCache};
@@ -75,6 +78,8 @@ pub struct DemFeed {
     /// (when, bytes read then) of the last rate sample.
     rate_sample: (Instant, u64),
     read_mb_per_s: f64,
+    /// The procedural detail on top of the tiles (camera ground, bounds).
+    detail: Option<Arc<Detail>>,
 }
 
 /// Priority of the camera's own tile (its height picks the near plane and θ̃min).
@@ -88,6 +93,7 @@ impl DemFeed {
         dem: DemTerrain,
         settings: StreamSettings,
         fill_capacity: u32,
+        detail: &DetailResources,
     ) -> Result<Self, RenderError> {
         let source = open_source(dem.pyramid_arc(), settings.faults);
         let streamer = TileStreamer::new(source, &settings).map_err(RenderError::StreamerStart)?;
@@ -95,7 +101,8 @@ impl DemFeed {
         Ok(Self {
             cache: TileCache::new(settings.cache_bytes),
             gpu,
-            fill: DemFillPass::new(device, fill_capacity),
+            fill: DemFillPass::new(device, fill_capacity, detail),
+            detail: detail.detail().cloned(),
             streamer,
             dem,
             settings,
@@ -201,6 +208,7 @@ impl DemFeed {
         encoder: &mut wgpu::CommandEncoder,
         levels: &[LevelFill],
         nadir_phi_theta: (f64, f64),
+        detail: &DetailResources,
         timestamps: Option<wgpu::ComputePassTimestampWrites<'_>>,
     ) -> (Vec<bool>, u64) {
         self.frame += 1;
@@ -294,7 +302,13 @@ impl DemFeed {
             filled.push(ready);
         }
         let params: Vec<DemFillParams> = jobs.iter().map(DemFillParams::from).collect();
-        let texels = self.fill.encode(queue, encoder, &params, timestamps);
+        let details: Vec<_> = jobs
+            .iter()
+            .map(|j| detail.block(&j.grid, j.origin[0], j.origin[1]))
+            .collect();
+        let texels = self
+            .fill
+            .encode(queue, encoder, &params, detail, &details, timestamps);
 
         self.streamer.want(&missing);
         let stream = self.streamer.stats();
@@ -436,6 +450,8 @@ impl DemFeed {
                     base_col = base_col.rem_euclid(cols);
                 }
                 out.push(DemFillJob {
+                    grid: *grid,
+                    origin: [rect.gx0 + x_off as i64, ya],
                     base: [base_col, row_floor as i64],
                     frac: [col - col_floor, row - row_floor],
                     step: [dcol, drow],
@@ -500,11 +516,21 @@ impl TerrainQuery for DemFeed {
         self.dem.radius_m()
     }
     fn height_range_m(&self) -> (f64, f64) {
-        self.dem.height_range_m()
+        let (lo, hi) = self.dem.height_range_m();
+        let b = self.detail.as_ref().map_or(0.0, |d| {
+            d.amplitude_for_relief_m(d.roughness().max_relief_m())
+                * d.normalized_bound(d.lambda_full())
+        });
+        (lo - b, hi + b)
     }
     fn ground_m(&self, lat_deg: f64, lon_deg: f64) -> (f64, HeightSource) {
         self.fell_back.set(false);
-        let h = self.height_at_m(lat_deg, lon_deg);
+        let mut h = self.height_at_m(lat_deg, lon_deg);
+        if let Some(d) = &self.detail {
+            // The ground the camera stands on: every octave (the detail is exact on the CPU).
+            let (phi, theta) = sphere::phi_theta_from_lat_lon_deg(lat_deg, lon_deg);
+            h += d.height_m(sphere::unit_vector(phi, theta), d.lambda_full());
+        }
         let source = if self.fell_back.get() {
             HeightSource::CoarserTiles
         } else {
@@ -513,7 +539,12 @@ impl TerrainQuery for DemFeed {
         (h, source)
     }
     fn height_bounds_near_m(&self, u: DVec3, angle_rad: f64) -> (f64, f64) {
-        DemFeed::height_bounds_near_m(self, u, angle_rad)
+        let (lo, hi) = DemFeed::height_bounds_near_m(self, u, angle_rad);
+        let b = self
+            .detail
+            .as_ref()
+            .map_or(0.0, |d| d.bounds_near(u, angle_rad, d.lambda_full()).0);
+        (lo - b, hi + b)
     }
 }
 

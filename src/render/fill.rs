@@ -6,18 +6,21 @@ use crate::terrain::AnalyticPlanet;
 
 use super::shader;
 
+use super::detail::DetailResources;
 use super::gpu_data::FillParams;
 
-/// The compute pipeline of a fill: entry point `cs_main`, one bind group.
+/// The compute pipeline of a fill: entry point `cs_main`, its own bind group and the detail's
+/// (group 1).
 pub(super) fn compute_pipeline(
     device: &wgpu::Device,
     label: &str,
     module: &wgpu::ShaderModule,
     layout: &wgpu::BindGroupLayout,
+    detail: &wgpu::BindGroupLayout,
 ) -> wgpu::ComputePipeline {
     let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
         label: Some(label),
-        bind_group_layouts: &[Some(layout)],
+        bind_group_layouts: &[Some(layout), Some(detail)],
         immediate_size: 0,
     });
     device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
@@ -109,7 +112,7 @@ pub struct FillJob {
 }
 
 impl FillPass {
-    pub fn new(device: &wgpu::Device, capacity: u32) -> Self {
+    pub fn new(device: &wgpu::Device, capacity: u32, detail: &DetailResources) -> Self {
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("fill_analytic.wgsl"),
             source: wgpu::ShaderSource::Wgsl(shader::assemble(shader::FILL_ANALYTIC).into()),
@@ -140,7 +143,7 @@ impl FillPass {
                 },
             ],
         });
-        let pipeline = compute_pipeline(device, "fill pipeline", &module, &layout);
+        let pipeline = compute_pipeline(device, "fill pipeline", &module, &layout, detail.layout());
         Self {
             pipeline,
             layout,
@@ -174,6 +177,7 @@ impl FillPass {
         queue: &wgpu::Queue,
         encoder: &mut wgpu::CommandEncoder,
         planet: &AnalyticPlanet,
+        detail: &DetailResources,
         jobs: &[FillJob],
         timestamps: Option<wgpu::ComputePassTimestampWrites<'_>>,
     ) -> u64 {
@@ -193,6 +197,11 @@ impl FillPass {
             .map(|job| FillParams::new(planet, &job.grid, &job.rect))
             .collect();
         self.params.write(queue, &blocks);
+        let details: Vec<_> = jobs
+            .iter()
+            .map(|job| detail.block(&job.grid, job.rect.gx0, job.rect.gy0))
+            .collect();
+        detail.write(queue, &details);
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some("clipmap fill"),
             timestamp_writes: timestamps,
@@ -201,6 +210,7 @@ impl FillPass {
         let mut texels = 0;
         for (i, job) in jobs.iter().enumerate() {
             pass.set_bind_group(0, bind_group, &[self.params.offset(i)]);
+            detail.set(&mut pass, i);
             pass.dispatch_workgroups(
                 job.rect.width.div_ceil(shader::WORKGROUP_SIZE),
                 job.rect.height.div_ceil(shader::WORKGROUP_SIZE),

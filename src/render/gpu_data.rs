@@ -13,6 +13,7 @@ use crate::clipmap::levels::{GridRect, LevelGrid};
 use crate::clipmap::{ClipmapSettings, RingVertex};
 use crate::geo::map_transform::{Stretch, TransformUniformsF32};
 use crate::plan::{ClipmapPlan, ViewPlan};
+use crate::procedural::{Detail, MAX_OCTAVES, OctaveAnchorF32};
 use crate::terrain::analytic::{AnalyticPlanet, SCALES, WaveAt};
 
 use super::fill::band_limit_texel_m;
@@ -70,7 +71,16 @@ wgsl_types! {
     [f32; 4] => "vec4<f32>",
     [u32; 2] => "vec2<u32>",
     [i32; 2] => "vec2<i32>",
+    [i32; 4] => "vec4<i32>",
+    [u32; 4] => "vec4<u32>",
     [[f32; 4]; 4] => "mat4x4<f32>",
+}
+
+/// The detail's amplitude table.
+impl WgslType for [[f32; 4]; DETAIL_AMPLITUDE_VECS] {
+    fn wgsl_type() -> String {
+        format!("array<vec4<f32>, {DETAIL_AMPLITUDE_VECS}>")
+    }
 }
 
 /// A fixed-size array of GPU structs.
@@ -137,6 +147,9 @@ pub struct FrameUniforms {
     /// one f32 step of the altitude, so the shader adds this low part after the difference.
     pub eye_height_lo_m: f32,
     pub _pad: [u32; 2],
+    /// λ(θ̃) = clamp(x − ln θ̃ · y, 0, z): the detail octaves geometry holds at view angle θ̃
+    /// (procedural module docs); all 0 without detail.
+    pub detail_lambda: [f32; 4],
 }
 
 /// `LevelUniforms` in `shaders/terrain.wgsl`: one per level, `MAX_LEVELS` of them.
@@ -148,7 +161,9 @@ pub struct LevelUniforms {
     pub inv_dphi: f32,
     pub inv_dtheta: f32,
     pub dtheta_rad: f32,
-    pub _pad: [f32; 3],
+    /// Index of the first partial octave (the whole ones are in the heights).
+    pub detail_full: u32,
+    pub _pad: [f32; 2],
 }
 
 /// One scale as the fill shader gets it. `Wave` in `shaders/fill_analytic.wgsl`.
@@ -200,15 +215,111 @@ pub struct DemFillParams {
     pub _pad: [u32; 2],
 }
 
+/// `DetailOctave` in `shaders/common/detail_fill.wgsl`: one octave's lattice around a job's
+/// first grid point.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct DetailOctaveParams {
+    /// Rows of M = Q·R/L (xyz) and the anchor's remainder (w).
+    pub m0: [f32; 4],
+    pub m1: [f32; 4],
+    pub m2: [f32; 4],
+    /// Anchor cell (xyz) and the hash seed's bit pattern (w).
+    pub cell: [i32; 4],
+}
+
+/// Vectors of four amplitudes a_k in [`DetailFillParams`].
+pub const DETAIL_AMPLITUDE_VECS: usize = MAX_OCTAVES / 4;
+
+/// `DetailFillParams` in `shaders/common/detail_fill.wgsl`: the detail of one fill dispatch
+/// (either fill; bound at group 1 with the same dynamic index as the fill's own block).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct DetailFillParams {
+    pub ref_trig: [f32; 4],
+    pub ref_angles: [f32; 4],
+    pub warp: [f32; 4],
+    pub warp2: [f32; 4],
+    pub sigma: [f32; 4],
+    pub counts: [u32; 4],
+    pub amplitudes: [[f32; 4]; DETAIL_AMPLITUDE_VECS],
+    pub octaves: [DetailOctaveParams; MAX_OCTAVES],
+}
+
+impl DetailFillParams {
+    /// The detail of the grid points of `grid` from (gx, gy) on (unfolded: rows past a pole
+    /// keep going, as the fills' rows do). No detail: every count 0.
+    pub fn new(detail: Option<&Detail>, grid: &LevelGrid, gx: i64, gy: i64, blend: f64) -> Self {
+        let mut p: Self = Zeroable::zeroed();
+        let Some(detail) = detail else {
+            return p;
+        };
+        let octaves = detail.level_octaves(grid.level, blend);
+        let count = (octaves.full + octaves.partial) as usize;
+        let phi = gx as f64 * grid.dphi_rad;
+        let theta = gy as f64 * grid.dtheta_rad;
+        p.ref_trig = [
+            theta.sin() as f32,
+            theta.cos() as f32,
+            phi.sin() as f32,
+            phi.cos() as f32,
+        ];
+        p.ref_angles = [
+            phi.rem_euclid(std::f64::consts::TAU) as f32,
+            theta as f32,
+            grid.dphi_rad as f32,
+            grid.dtheta_rad as f32,
+        ];
+        let c = detail.constants_f32();
+        p.warp = [c.lever, c.t[0], c.t[1], c.height_roughness];
+        p.warp2 = [c.c1r0[0], c.c1r0[1], c.c2[0], c.c2[1]];
+        let dp = detail.params();
+        p.sigma = [
+            dp.amplitude_min_m as f32,
+            (dp.roughness_gain * detail.relief_scale()) as f32,
+            dp.amplitude_max_m as f32,
+            0.0,
+        ];
+        let map = detail.roughness();
+        p.counts = [octaves.full, octaves.partial, map.cols, map.rows];
+        for (k, a) in detail.amplitudes_f32().into_iter().enumerate() {
+            p.amplitudes[k / 4][k % 4] = a;
+        }
+        let u_ref = crate::geo::sphere::unit_vector(phi, theta);
+        for (o, a) in p.octaves.iter_mut().zip(detail.anchors(u_ref, count)) {
+            *o = DetailOctaveParams::from(&a);
+        }
+        p
+    }
+}
+
+impl From<&OctaveAnchorF32> for DetailOctaveParams {
+    fn from(a: &OctaveAnchorF32) -> Self {
+        let row = |i: usize| [a.m[i][0], a.m[i][1], a.m[i][2], a.frac[i]];
+        Self {
+            m0: row(0),
+            m1: row(1),
+            m2: row(2),
+            cell: [a.cell[0], a.cell[1], a.cell[2], a.seed as i32],
+        }
+    }
+}
+
+gpu_struct!(DetailOctaveParams as "DetailOctave" { m0, m1, m2, cell });
+gpu_struct!(DetailFillParams as "DetailFillParams" {
+    ref_trig, ref_angles, warp, warp2, sigma, counts, amplitudes, octaves,
+});
+
 gpu_struct!(TransformUniformsF32 as "TransformUniforms" {
     sin_theta_v, cos_theta_v, theta_v, pi_minus_theta_v, stretch,
 });
 gpu_struct!(FrameUniforms as "FrameUniforms" {
     clip_from_view, transform, sun_view, radius_m, eye_height_m, blend_fraction, texture_size,
     transform_form, approx_start_level, coarsest_level, finest_level, overlay, eye_height_lo_m,
+    detail_lambda,
 });
 gpu_struct!(LevelUniforms as "LevelUniforms" {
-    grid_x_viewer, grid_y_viewer, inv_dphi, inv_dtheta, dtheta_rad,
+    grid_x_viewer, grid_y_viewer, inv_dphi, inv_dtheta, dtheta_rad, detail_full,
 });
 gpu_struct!(WaveParams as "Wave" { omega_a, omega_b, phases });
 gpu_struct!(FillParams as "FillParams" { ref_trig, spacing, slot0, extent, layer, size, waves });
@@ -252,6 +363,12 @@ pub struct PassContract {
 
 /// Every shader module globe builds, with what Rust assumes of it.
 pub fn pass_contracts() -> Vec<PassContract> {
+    // Both fills: the detail's block at group 1.
+    let detail_buffer = || BufferBinding {
+        group: 1,
+        binding: 0,
+        wgsl_type: DetailFillParams::wgsl_type(),
+    };
     let buffer = |binding, wgsl_type: String| BufferBinding {
         group: 0,
         binding,
@@ -277,16 +394,25 @@ pub fn pass_contracts() -> Vec<PassContract> {
         PassContract {
             file: "fill_analytic.wgsl",
             source: shader::assemble(shader::FILL_ANALYTIC),
-            structs: vec![FillParams::layout(), WaveParams::layout()],
-            buffers: vec![buffer(0, FillParams::wgsl_type())],
+            structs: vec![
+                FillParams::layout(),
+                WaveParams::layout(),
+                DetailFillParams::layout(),
+                DetailOctaveParams::layout(),
+            ],
+            buffers: vec![buffer(0, FillParams::wgsl_type()), detail_buffer()],
             vertex: None,
             workgroup_size: Some(workgroup),
         },
         PassContract {
             file: "fill_dem.wgsl",
             source: shader::assemble(shader::FILL_DEM),
-            structs: vec![DemFillParams::layout()],
-            buffers: vec![buffer(0, DemFillParams::wgsl_type()), {
+            structs: vec![
+                DemFillParams::layout(),
+                DetailFillParams::layout(),
+                DetailOctaveParams::layout(),
+            ],
+            buffers: vec![buffer(0, DemFillParams::wgsl_type()), detail_buffer(), {
                 // The page table: one slot index per pyramid tile.
                 buffer(3, "array<u32>".to_string())
             }],
@@ -324,6 +450,7 @@ impl FrameUniforms {
         clipmap: &ClipmapPlan,
         settings: &ClipmapSettings,
         overlays: Overlays,
+        detail: Option<&Detail>,
     ) -> Self {
         let altitude_m = view.camera.altitude_m;
         let sun = view.sun_view.as_vec3();
@@ -343,13 +470,22 @@ impl FrameUniforms {
             overlay: overlays.bits(),
             eye_height_lo_m: (altitude_m - altitude_m as f32 as f64) as f32,
             _pad: [0; 2],
+            detail_lambda: detail.map_or([0.0; 4], |d| {
+                let (x, y, z) = d.lambda_constants();
+                [x as f32, y as f32, z as f32, 0.0]
+            }),
         }
     }
 }
 
 /// Per level, where the viewer sits in the texture it holds (texel units, modulo the size) and
 /// its spacing; zero for levels never filled.
-pub fn level_uniforms(view: &ViewPlan, held: &[Option<LevelGrid>]) -> Vec<LevelUniforms> {
+pub fn level_uniforms(
+    view: &ViewPlan,
+    held: &[Option<LevelGrid>],
+    detail: Option<&Detail>,
+    blend_fraction: f64,
+) -> Vec<LevelUniforms> {
     let mut levels = vec![LevelUniforms::default(); MAX_LEVELS as usize];
     for (uniforms, grid) in levels.iter_mut().zip(held) {
         if let Some(g) = grid {
@@ -360,7 +496,8 @@ pub fn level_uniforms(view: &ViewPlan, held: &[Option<LevelGrid>]) -> Vec<LevelU
                 inv_dphi: (1.0 / g.dphi_rad) as f32,
                 inv_dtheta: (1.0 / g.dtheta_rad) as f32,
                 dtheta_rad: g.dtheta_rad as f32,
-                _pad: [0.0; 3],
+                detail_full: detail.map_or(0, |d| d.level_octaves(g.level, blend_fraction).full),
+                _pad: [0.0; 2],
             };
         }
     }
@@ -412,6 +549,10 @@ impl From<&WaveAt> for WaveParams {
 /// a pole and at a regional grid's 360° wrap).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct DemFillJob {
+    /// The level's grid and the grid point (gx, gy) of the job's first texel (the detail's
+    /// reference point; rows past a pole unfolded).
+    pub grid: LevelGrid,
+    pub origin: [i64; 2],
     /// Pyramid pixel (col, row) of the job's first grid point: integer part and fraction.
     pub base: [i64; 2],
     pub frac: [f64; 2],

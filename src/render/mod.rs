@@ -6,6 +6,7 @@
 
 pub mod context;
 pub mod dem_feed;
+pub mod detail;
 pub mod fill;
 pub mod gpu_data;
 pub mod offscreen;

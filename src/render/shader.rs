@@ -5,6 +5,7 @@
 //! module-scope `const` of its own.
 
 use crate::clipmap::settings::TransformForm;
+use crate::procedural::MAX_OCTAVES;
 use crate::terrain::analytic::SCALES;
 
 /// Largest level count any settings may use (size of the per-level uniform array).
@@ -18,6 +19,8 @@ pub const NO_SLOT: u32 = u32::MAX;
 pub const OVERLAY_LEVELS: u32 = 1;
 
 const MAP_TRANSFORM: &str = include_str!("../../shaders/common/map_transform.wgsl");
+const NOISE: &str = include_str!("../../shaders/common/noise.wgsl");
+const DETAIL_FILL: &str = include_str!("../../shaders/common/detail_fill.wgsl");
 pub const TERRAIN: &str = include_str!("../../shaders/terrain.wgsl");
 pub const FILL_ANALYTIC: &str = include_str!("../../shaders/fill_analytic.wgsl");
 pub const FILL_DEM: &str = include_str!("../../shaders/fill_dem.wgsl");
@@ -38,6 +41,8 @@ pub fn shared_constants() -> Vec<SharedConstant> {
         c("WORKGROUP_SIZE", WORKGROUP_SIZE),
         c("NO_SLOT", NO_SLOT),
         c("OVERLAY_LEVELS", OVERLAY_LEVELS),
+        c("MAX_OCTAVES", MAX_OCTAVES as u32),
+        c("DETAIL_AMPLITUDE_VECS", (MAX_OCTAVES / 4) as u32),
         c("TRANSFORM_DIRECT", TransformForm::Direct.shader_code()),
         c("TRANSFORM_STABLE", TransformForm::Stable.shader_code()),
         c(
@@ -55,7 +60,13 @@ pub fn constants() -> String {
         .collect()
 }
 
-/// Full source of a pass: constants, shared library, pass body.
+/// Full source of a pass: constants, shared library, pass body. A fill (`FILL_ANALYTIC`,
+/// `FILL_DEM`) also gets the detail's fill code and its bindings (group 1).
 pub fn assemble(pass: &str) -> String {
-    format!("{}\n{MAP_TRANSFORM}\n{pass}", constants())
+    let fill = if pass == FILL_ANALYTIC || pass == FILL_DEM {
+        DETAIL_FILL
+    } else {
+        ""
+    };
+    format!("{}\n{MAP_TRANSFORM}\n{NOISE}\n{fill}\n{pass}", constants())
 }

@@ -12,10 +12,11 @@ use crate::clipmap::{ClipmapSettings, RingMesh, RingVertex};
 use crate::geo::camera::Camera;
 use crate::plan::{ClipmapPlan, HeightSource, TerrainQuery, ViewPlan};
 use crate::stream::StreamSettings;
-use crate::terrain::Terrain;
+use crate::terrain::{Base, Terrain};
 
 use super::RenderError;
 use super::dem_feed::{DemFeed, FeedFrame};
+use super::detail::{self, DetailResources};
 use super::fill::{FillJob, FillPass};
 use super::gpu_data::{self, FrameUniforms, LevelUniforms, RING_VERTEX_ATTRIBUTES};
 use super::shader::{self, MAX_LEVELS};
@@ -78,6 +79,9 @@ pub struct TerrainRenderer {
     /// The DEM's streaming pipeline (None for the analytic planet).
     feed: Option<DemFeed>,
     heights: wgpu::Texture,
+    /// The procedural detail's fill resources and the partial-octave level textures.
+    detail: DetailResources,
+    partials: wgpu::Texture,
 }
 
 impl TerrainRenderer {
@@ -157,6 +161,19 @@ impl TerrainRenderer {
             dimension: Some(wgpu::TextureViewDimension::D2Array),
             ..Default::default()
         });
+        let partials = detail::partials_texture(device, settings.texture_size, settings.levels);
+        let partials_view = partials.create_view(&wgpu::TextureViewDescriptor {
+            dimension: Some(wgpu::TextureViewDimension::D2Array),
+            ..Default::default()
+        });
+        // Up to 2 rectangles per level, each split (DEM) in up to 3 row and 2 column pieces.
+        let mut detail_resources = DetailResources::new(
+            device,
+            terrain.detail().cloned(),
+            settings.blend_fraction as f64,
+            12 * settings.levels,
+        );
+        detail_resources.bind(device, &partials_view);
 
         let uniform_entry = |binding| wgpu::BindGroupLayoutEntry {
             binding,
@@ -183,6 +200,16 @@ impl TerrainRenderer {
                     },
                     count: None,
                 },
+                wgpu::BindGroupLayoutEntry {
+                    binding: 3,
+                    visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
+                    ty: wgpu::BindingType::Texture {
+                        sample_type: wgpu::TextureSampleType::Float { filterable: false },
+                        view_dimension: wgpu::TextureViewDimension::D2Array,
+                        multisampled: false,
+                    },
+                    count: None,
+                },
             ],
         });
         let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
@@ -200,6 +227,10 @@ impl TerrainRenderer {
                 wgpu::BindGroupEntry {
                     binding: 2,
                     resource: wgpu::BindingResource::TextureView(&heights_view),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 3,
+                    resource: wgpu::BindingResource::TextureView(&partials_view),
                 },
             ],
         });
@@ -258,17 +289,22 @@ impl TerrainRenderer {
         let pipeline = make_pipeline("terrain pipeline", "vs_main", "fs_main");
         let passthrough =
             make_pipeline("pass-through pipeline", "vs_passthrough", "fs_passthrough");
-        let mut fill = FillPass::new(device, 2 * settings.levels);
+        let mut fill = FillPass::new(device, 2 * settings.levels, &detail_resources);
         fill.set_target(device, &heights_view);
         let grids = vec![None; settings.levels as usize];
-        let feed = match &terrain {
-            Terrain::Dem(dem) => {
-                // Up to 2 rectangles per level, each split in up to 3 row and 2 column pieces.
-                let mut feed = DemFeed::new(device, dem.clone(), stream, 12 * settings.levels)?;
+        let feed = match terrain.base() {
+            Base::Dem(dem) => {
+                let mut feed = DemFeed::new(
+                    device,
+                    dem.clone(),
+                    stream,
+                    12 * settings.levels,
+                    &detail_resources,
+                )?;
                 feed.bind(device, &heights_view);
                 Some(feed)
             }
-            Terrain::Analytic(_) => None,
+            Base::Analytic(_) => None,
         };
         Ok(Self {
             settings,
@@ -291,6 +327,8 @@ impl TerrainRenderer {
             grids,
             feed,
             heights,
+            detail: detail_resources,
+            partials,
         })
     }
 
@@ -445,8 +483,8 @@ impl TerrainRenderer {
                 beginning_of_pass_write_index: Some(2),
                 end_of_pass_write_index: Some(3),
             });
-        let (texels_filled, stream) = match (&self.terrain, &mut self.feed) {
-            (Terrain::Analytic(planet), _) => {
+        let (texels_filled, stream) = match (self.terrain.base(), &mut self.feed) {
+            (Base::Analytic(planet), _) => {
                 let jobs: Vec<FillJob> = clipmap
                     .fills
                     .iter()
@@ -460,13 +498,21 @@ impl TerrainRenderer {
                 for fill in &clipmap.fills {
                     self.grids[fill.grid.level as usize] = Some(fill.grid);
                 }
-                let texels = self.fill.encode(queue, encoder, planet, &jobs, timestamps);
+                let texels =
+                    self.fill
+                        .encode(queue, encoder, planet, &self.detail, &jobs, timestamps);
                 (texels, None)
             }
-            (Terrain::Dem(_), Some(feed)) => {
+            (Base::Dem(_), Some(feed)) => {
                 let nadir = (view.phi_v_rad, view.theta_v_rad);
-                let (filled, texels) =
-                    feed.update(queue, encoder, &clipmap.fills, nadir, timestamps);
+                let (filled, texels) = feed.update(
+                    queue,
+                    encoder,
+                    &clipmap.fills,
+                    nadir,
+                    &self.detail,
+                    timestamps,
+                );
                 for (fill, ok) in clipmap.fills.iter().zip(filled) {
                     if ok {
                         self.grids[fill.grid.level as usize] = Some(fill.grid);
@@ -474,7 +520,7 @@ impl TerrainRenderer {
                 }
                 (texels, Some(feed.last.clone()))
             }
-            (Terrain::Dem(_), None) => unreachable!("a DEM renderer always has a feed"),
+            (Base::Dem(_), None) => unreachable!("a DEM renderer always has a feed"),
         };
         clipmap.limit_to_held(&self.grids);
         clipmap.cull(
@@ -485,9 +531,12 @@ impl TerrainRenderer {
             self.draw_all_sectors,
         );
 
-        let levels = gpu_data::level_uniforms(&view, &self.grids);
+        let detail = self.terrain.detail().map(|d| d.as_ref());
+        let blend = self.settings.blend_fraction as f64;
+        let levels = gpu_data::level_uniforms(&view, &self.grids, detail, blend);
         queue.write_buffer(&self.levels_buffer, 0, bytemuck::cast_slice(&levels));
-        let uniforms = FrameUniforms::from_plan(&view, &clipmap, &self.settings, self.overlays);
+        let uniforms =
+            FrameUniforms::from_plan(&view, &clipmap, &self.settings, self.overlays, detail);
         queue.write_buffer(&self.frame_buffer, 0, bytemuck::bytes_of(&uniforms));
 
         // A frame whose camera height came from coarser tiles than its own is not settled,

@@ -13,10 +13,12 @@ use wgpu::util::DeviceExt;
 use crate::dem::pyramid::Pyramid;
 use crate::stream::{TileData, TileKey};
 
+use super::detail::DetailResources;
 use super::fill::{DispatchParams, compute_pipeline};
 use super::shader;
 
 pub use super::gpu_data::DemFillParams;
+use super::gpu_data::DetailFillParams;
 use super::shader::{NO_SLOT, WORKGROUP_SIZE};
 
 /// Tiles resident on the GPU.
@@ -194,7 +196,7 @@ pub struct DemFillPass {
 }
 
 impl DemFillPass {
-    pub fn new(device: &wgpu::Device, capacity: u32) -> Self {
+    pub fn new(device: &wgpu::Device, capacity: u32, detail: &DetailResources) -> Self {
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("fill_dem.wgsl"),
             source: wgpu::ShaderSource::Wgsl(shader::assemble(shader::FILL_DEM).into()),
@@ -243,7 +245,13 @@ impl DemFillPass {
                 ),
             ],
         });
-        let pipeline = compute_pipeline(device, "DEM fill pipeline", &module, &layout);
+        let pipeline = compute_pipeline(
+            device,
+            "DEM fill pipeline",
+            &module,
+            &layout,
+            detail.layout(),
+        );
         Self {
             pipeline,
             layout,
@@ -291,14 +299,19 @@ impl DemFillPass {
         queue: &wgpu::Queue,
         encoder: &mut wgpu::CommandEncoder,
         jobs: &[DemFillParams],
+        detail: &DetailResources,
+        details: &[DetailFillParams],
         timestamps: Option<wgpu::ComputePassTimestampWrites<'_>>,
     ) -> u64 {
-        let jobs = &jobs[..jobs.len().min(self.params.capacity() as usize)];
+        let n = jobs.len().min(self.params.capacity() as usize);
+        let n = n.min(detail.capacity() as usize);
+        let jobs = &jobs[..n];
         if jobs.is_empty() {
             return 0;
         }
         let bind_group = self.bind_group.as_ref().expect("DEM fill bound before use");
         self.params.write(queue, jobs);
+        detail.write(queue, &details[..n]);
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some("clipmap DEM fill"),
             timestamp_writes: timestamps,
@@ -307,6 +320,7 @@ impl DemFillPass {
         let mut texels = 0;
         for (i, p) in jobs.iter().enumerate() {
             pass.set_bind_group(0, bind_group, &[self.params.offset(i)]);
+            detail.set(&mut pass, i);
             pass.dispatch_workgroups(
                 p.extent[0].div_ceil(WORKGROUP_SIZE),
                 p.extent[1].div_ceil(WORKGROUP_SIZE),

@@ -5,46 +5,126 @@
 pub mod analytic;
 pub mod dem;
 
+use std::sync::Arc;
+
 use glam::DVec3;
 
 pub use analytic::AnalyticPlanet;
 pub use dem::DemTerrain;
 
 use crate::geo::sphere;
+use crate::procedural::{Detail, DetailParams};
 
-/// The terrain the renderer draws and the measurements compare against.
+/// Where the terrain's base heights come from.
 #[derive(Clone, Debug)]
-pub enum Terrain {
+pub enum Base {
     /// The analytic test planet (boxed: its wave table is large next to a DEM handle).
     Analytic(Box<AnalyticPlanet>),
     /// Real elevation data from a pyramid file.
     Dem(DemTerrain),
 }
 
+/// The terrain function every LOD method approximates: the base heights (DEM or analytic)
+/// plus, when on, the procedural detail below their resolution (`procedural`).
+#[derive(Clone, Debug)]
+pub struct Terrain {
+    base: Base,
+    detail: Option<Arc<Detail>>,
+}
+
+impl From<Base> for Terrain {
+    fn from(base: Base) -> Self {
+        Self { base, detail: None }
+    }
+}
+
 impl Terrain {
     /// The real Earth shipped inside the binary (ETOPO5 at 10′), its pyramid built into the
     /// cache on first use.
     pub fn embedded_earth() -> Result<Self, crate::dem::DemError> {
-        Ok(Self::Dem(dem::embedded_earth(crate::geo::EARTH_RADIUS_M)?))
+        Ok(Base::Dem(dem::embedded_earth(crate::geo::EARTH_RADIUS_M)?).into())
     }
 
     /// The analytic test planet on the Earth's sphere.
     pub fn analytic_earth() -> Self {
-        Self::Analytic(Box::new(AnalyticPlanet::earth()))
+        Base::Analytic(Box::new(AnalyticPlanet::earth())).into()
     }
 
-    pub fn radius_m(&self) -> f64 {
-        match self {
-            Self::Analytic(p) => p.radius_m,
-            Self::Dem(d) => d.radius_m(),
+    /// A DEM terrain without detail.
+    pub fn dem_terrain(dem: DemTerrain) -> Self {
+        Base::Dem(dem).into()
+    }
+
+    /// The same base with detail of `params` (`None`: off). Builds the relief map from the
+    /// base (a fraction of a second).
+    pub fn with_detail(self, params: Option<DetailParams>) -> Self {
+        let base_only: Terrain = self.base.into();
+        let detail = params.map(|p| Arc::new(Detail::for_terrain(p, &base_only)));
+        Self {
+            base: base_only.base,
+            detail,
         }
     }
 
-    /// The terrain function: height in metres above the sphere at unit vector `u` (f64).
+    /// The same base with a prepared detail.
+    pub fn with_detail_of(self, detail: Option<Arc<Detail>>) -> Self {
+        Self {
+            base: self.base,
+            detail,
+        }
+    }
+
+    pub fn base(&self) -> &Base {
+        &self.base
+    }
+
+    pub fn detail(&self) -> Option<&Arc<Detail>> {
+        self.detail.as_ref()
+    }
+
+    /// The DEM, when that is the base.
+    pub fn dem(&self) -> Option<&DemTerrain> {
+        match &self.base {
+            Base::Dem(d) => Some(d),
+            Base::Analytic(_) => None,
+        }
+    }
+
+    pub fn radius_m(&self) -> f64 {
+        match &self.base {
+            Base::Analytic(p) => p.radius_m,
+            Base::Dem(d) => d.radius_m(),
+        }
+    }
+
+    /// The base heights alone at unit vector `u` (f64).
+    pub fn base_height_m(&self, u: DVec3) -> f64 {
+        match &self.base {
+            Base::Analytic(p) => p.height_m(u),
+            Base::Dem(d) => d.height_m(u),
+        }
+    }
+
+    /// The ground: base plus every octave of detail down to its floor, at unit vector `u`
+    /// (f64). This is where a camera stands ("2 m above terrain").
     pub fn height_m(&self, u: DVec3) -> f64 {
-        match self {
-            Self::Analytic(p) => p.height_m(u),
-            Self::Dem(d) => d.height_m(u),
+        let detail = self
+            .detail
+            .as_ref()
+            .map_or(0.0, |d| d.height_m(u, d.lambda_full()));
+        self.base_height_m(u) + detail
+    }
+
+    /// The terrain function as geometry for a viewer above `viewer_u`: base plus the detail
+    /// octaves geometry holds at that arc distance (`procedural` module docs).
+    pub fn height_for_viewer_m(&self, u: DVec3, viewer_u: DVec3) -> f64 {
+        let base = self.base_height_m(u);
+        match &self.detail {
+            None => base,
+            Some(d) => {
+                let arc = sphere::great_circle_distance_m(u, viewer_u, 1.0);
+                base + d.height_m(u, d.lambda_at_angle(arc))
+            }
         }
     }
 
@@ -53,34 +133,53 @@ impl Terrain {
         self.height_m(sphere::unit_vector(phi, theta))
     }
 
+    /// Largest |detail| anywhere (0 without detail).
+    pub fn detail_bound_m(&self) -> f64 {
+        self.detail.as_ref().map_or(0.0, |d| {
+            d.amplitude_for_relief_m(d.roughness().max_relief_m())
+                * d.normalized_bound(d.lambda_full())
+        })
+    }
+
     /// Lowest and highest terrain anywhere (for the horizon bound, eq. 6).
     pub fn height_range_m(&self) -> (f64, f64) {
-        match self {
-            Self::Analytic(p) => p.height_range_m(),
-            Self::Dem(d) => d.height_range_m(),
-        }
+        let (lo, hi) = match &self.base {
+            Base::Analytic(p) => p.height_range_m(),
+            Base::Dem(d) => d.height_range_m(),
+        };
+        let b = self.detail_bound_m();
+        (lo - b, hi + b)
     }
 
     /// Bounds of the terrain within an arc of `angle_rad` around `u` (for culling).
     pub fn height_bounds_near_m(&self, u: DVec3, angle_rad: f64) -> (f64, f64) {
-        match self {
-            Self::Analytic(p) => p.height_bounds_near_m(u, angle_rad),
-            Self::Dem(d) => d.height_bounds_near_m(u, angle_rad),
-        }
+        let (lo, hi) = match &self.base {
+            Base::Analytic(p) => p.height_bounds_near_m(u, angle_rad),
+            Base::Dem(d) => d.height_bounds_near_m(u, angle_rad),
+        };
+        let b = self
+            .detail
+            .as_ref()
+            .map_or(0.0, |d| d.bounds_near(u, angle_rad, d.lambda_full()).0);
+        (lo - b, hi + b)
     }
 
     /// The analytic planet, when that is the source (tests use its closed-form error bounds).
     pub fn analytic(&self) -> Option<&AnalyticPlanet> {
-        match self {
-            Self::Analytic(p) => Some(p.as_ref()),
-            Self::Dem(_) => None,
+        match &self.base {
+            Base::Analytic(p) => Some(p.as_ref()),
+            Base::Dem(_) => None,
         }
     }
 
     pub fn describe(&self) -> String {
-        match self {
-            Self::Analytic(_) => "analytic test planet".to_string(),
-            Self::Dem(d) => d.describe().to_string(),
+        let base = match &self.base {
+            Base::Analytic(_) => "analytic test planet".to_string(),
+            Base::Dem(d) => d.describe().to_string(),
+        };
+        match &self.detail {
+            Some(_) => format!("{base} + procedural detail"),
+            None => base,
         }
     }
 }
@@ -100,12 +199,12 @@ pub fn open_terrain(
         path => {
             let path = std::path::Path::new(path);
             if path.is_file() && starts_with_pyramid_magic(path) {
-                return Ok(Terrain::Dem(DemTerrain::open(path, radius_m)?));
+                return Ok(Terrain::dem_terrain(DemTerrain::open(path, radius_m)?));
             }
             let source = crate::dem::raster::open_raster(path, None)?;
             let cached = dem::cache_path_for(path)?;
             dem::import_cached(source.as_ref(), &cached, progress)?;
-            Ok(Terrain::Dem(DemTerrain::open(&cached, radius_m)?))
+            Ok(Terrain::dem_terrain(DemTerrain::open(&cached, radius_m)?))
         }
     }
 }

@@ -1,0 +1,74 @@
+// The auxiliary function S of eq. 1 (infinite-landscapes-projected-grid.md §2.1): value noise
+// over a 3-D integer lattice with an integer hash (never `sin`: GPUs differ there).
+// Rust twins: procedural::noise::{pcg3d, lattice_value, value_noise_f32}.
+
+// pcg3d (Jarzynski & Olano 2020).
+fn pcg3d(v_in: vec3<u32>) -> vec3<u32> {
+    var v = v_in * 1664525u + 1013904223u;
+    v.x += v.y * v.z;
+    v.y += v.z * v.x;
+    v.z += v.x * v.y;
+    v ^= v >> vec3<u32>(16u);
+    v.x += v.y * v.z;
+    v.y += v.z * v.x;
+    v.z += v.x * v.y;
+    return v;
+}
+
+// Lattice value of cell c in [−1, 1): 24 hash bits times 2⁻²³, exact in f32.
+fn lattice_value(c: vec3<i32>, seed: u32) -> f32 {
+    let h = pcg3d(vec3<u32>(bitcast<u32>(c.x) ^ seed, bitcast<u32>(c.y), bitcast<u32>(c.z) + seed));
+    return f32(h.x >> 8u) * (1.0 / 8388608.0) - 1.0;
+}
+
+fn fade(t: f32) -> f32 {
+    return t * t * t * (t * (t * 6.0 - 15.0) + 10.0);
+}
+
+// S at cell + f (f in [0, 1)³): quintic-faded trilinear interpolation of the lattice values.
+fn value_noise(cell: vec3<i32>, f: vec3<f32>, seed: u32) -> f32 {
+    let w = vec3<f32>(fade(f.x), fade(f.y), fade(f.z));
+    let v000 = lattice_value(cell, seed);
+    let v100 = lattice_value(cell + vec3<i32>(1, 0, 0), seed);
+    let v010 = lattice_value(cell + vec3<i32>(0, 1, 0), seed);
+    let v110 = lattice_value(cell + vec3<i32>(1, 1, 0), seed);
+    let v001 = lattice_value(cell + vec3<i32>(0, 0, 1), seed);
+    let v101 = lattice_value(cell + vec3<i32>(1, 0, 1), seed);
+    let v011 = lattice_value(cell + vec3<i32>(0, 1, 1), seed);
+    let v111 = lattice_value(cell + vec3<i32>(1, 1, 1), seed);
+    let x00 = v000 + (v100 - v000) * w.x;
+    let x10 = v010 + (v110 - v010) * w.x;
+    let x01 = v001 + (v101 - v001) * w.x;
+    let x11 = v011 + (v111 - v011) * w.x;
+    let y0 = x00 + (x10 - x00) * w.y;
+    let y1 = x01 + (x11 - x01) * w.y;
+    return y0 + (y1 - y0) * w.z;
+}
+
+// sin(a + d) − sin a and cos(a + d) − cos a without cancellation: −2 sin²(d/2) terms.
+fn delta_sin(s: f32, c: f32, d: f32) -> f32 {
+    let h = sin(0.5 * d);
+    return -2.0 * s * h * h + c * sin(d);
+}
+fn delta_cos(s: f32, c: f32, d: f32) -> f32 {
+    let h = sin(0.5 * d);
+    return -2.0 * c * h * h - s * sin(d);
+}
+
+// u(θr + dθ, φr + dφ) − u(θr, φr), u = (sin θ cos φ, sin θ sin φ, cos θ); ref_trig holds
+// sin θr, cos θr, sin φr, cos φr.
+fn delta_unit_from(ref_trig: vec4<f32>, dphi: f32, dtheta: f32) -> vec3<f32> {
+    let st = ref_trig.x;
+    let ct = ref_trig.y;
+    let sp = ref_trig.z;
+    let cp = ref_trig.w;
+    let d_st = delta_sin(st, ct, dtheta);
+    let d_ct = delta_cos(st, ct, dtheta);
+    let d_sp = delta_sin(sp, cp, dphi);
+    let d_cp = delta_cos(sp, cp, dphi);
+    return vec3<f32>(
+        st * d_cp + d_st * cp + d_st * d_cp,
+        st * d_sp + d_st * sp + d_st * d_sp,
+        d_ct,
+    );
+}

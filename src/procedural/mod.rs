@@ -1,0 +1,706 @@
+//! Procedural detail below the data's resolution: the rescale-and-add multifractal of
+//! infinite-landscapes-projected-grid.md eq. 1 with domain warping (§2.2), band-limited by
+//! distance (§4.1), with its amplitude tied to the data's local relief.
+//!
+//! # The function
+//!
+//! Octave k has lattice cells of L_k = L_0·r^−k metres (r: lacunarity) from L_0, one octave
+//! below the data's pixel spacing, down to the floor (1 cm by default), and amplitude
+//! a_k = r^−kH (H: Hurst exponent, eq. 1's 1/r^kH). With S_k the value noise of octave k over
+//! its warped, rotated 3-D lattice ([`noise`], [`warp`]) and Ĥ_k = Σ_{j<k} t_j the height so
+//! far:
+//!
+//! t_k = a_k·(1 + g_h·clamp(Ĥ_k, −1, 1))·S_k            (height-dependent roughness)
+//! D(u, λ) = σ(u)·Σ_k w_k(λ)·t_k,   w_k(λ) = clamp(λ − k, 0, 1)
+//!
+//! σ(u) is the first octave's amplitude from the relief map ([`roughness`]), so plains stay
+//! gentle and mountains get rough. λ counts octaves (§4.1: ⌊λ⌋ whole, the next one weighted by
+//! the fraction, geomorphing for free). The warp and the roughness read Ĥ_k without the weights,
+//! so each octave's shape does not depend on λ: only how much of it is added.
+//!
+//! # Which octaves are geometry (the rule the metric and the renderer share)
+//!
+//! At arc distance s from the point under the viewer, geometry holds the octaves whose cells are
+//! at least κ·s: λ_geo(s) = log_r(L_0 / (κ·s)) + 1, clamped to [0, n] (κ = `geometry_cut`, 1/8
+//! by default). The terrain function the reference ray caster and the metric evaluate for a view
+//! is DEM + D(u, λ_geo(s(u))); at the viewer (s = 0) it is every octave down to the floor, which
+//! is the ground the camera stands on. Finer octaves are shading only. With κ = 1/8 a clipmap
+//! level's finest geometric octave spans at least 8 of its texels at the level's inner edge
+//! (spherical-clipmaps.md §4.2: a level holds only what its texels can carry) and at least four
+//! vertex spacings, so the ring mesh neither aliases nor loses it.
+
+pub mod noise;
+pub mod roughness;
+pub mod warp;
+
+use std::path::{Path, PathBuf};
+
+use glam::{DMat3, DQuat, DVec3};
+use serde::{Deserialize, Serialize};
+
+pub use roughness::RoughnessMap;
+pub use warp::WarpParams;
+
+use crate::terrain::Terrain;
+
+/// Octaves at most (the GPU's per-job table); a floor that would need more is raised.
+pub const MAX_OCTAVES: usize = 32;
+/// Octaves a clipmap level can hold with a weight between 0 and 1 (one RGBA texel).
+pub const MAX_PARTIAL: usize = 4;
+
+/// The detail's parameters, as saved in a detail file (JSON). Every field has a default.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct DetailParams {
+    /// Seed of the lattice hash: another seed, another planet surface.
+    pub seed: u32,
+    /// H of eq. 1, in [0.05, 1]: amplitudes fall by r^−H per octave (1: smooth, 0: rough).
+    pub hurst: f64,
+    /// r of eq. 1, in [1.4, 4]: cells shrink by r per octave.
+    pub lacunarity: f64,
+    /// Smallest cell, metres (default 1 cm); at least 1 mm.
+    pub floor_m: f64,
+    /// How many octaves below the data's pixel spacing the first octave's cell lies, [0, 4].
+    pub octaves_below_data: f64,
+    /// First octave's amplitude where the data is flat, metres.
+    pub amplitude_min_m: f64,
+    /// First octave's amplitude per metre of the data's local relief, continued from the
+    /// relief map's cell to the first octave's by (L_0/cell)^H, [0, 10].
+    pub roughness_gain: f64,
+    /// Cap on the first octave's amplitude, metres.
+    pub amplitude_max_m: f64,
+    /// g_h: how much the height so far roughens (peaks) or smooths (valleys) the next octave,
+    /// [0, 0.95].
+    pub height_roughness: f64,
+    /// κ: geometry holds octaves whose cells are at least κ × the arc distance from the
+    /// viewer; finer ones are shading. (0, 4].
+    pub geometry_cut: f64,
+    pub warp: WarpParams,
+}
+
+impl Default for DetailParams {
+    fn default() -> Self {
+        Self {
+            seed: 1,
+            hurst: 0.85,
+            lacunarity: 2.0,
+            floor_m: 0.01,
+            octaves_below_data: 1.0,
+            amplitude_min_m: 4.0,
+            roughness_gain: 0.1,
+            amplitude_max_m: 600.0,
+            height_roughness: 0.3,
+            geometry_cut: 0.125,
+            warp: WarpParams::default(),
+        }
+    }
+}
+
+/// A detail file that cannot be used.
+#[derive(Debug, thiserror::Error)]
+pub enum DetailError {
+    #[error("cannot read detail file {path}: {source}")]
+    Read {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    #[error("cannot write detail file {path}: {source}")]
+    Write {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    #[error("detail file {path}: {message}")]
+    Parse { path: PathBuf, message: String },
+    #[error("{origin}: field `{field}` = {value} is outside its allowed range {allowed}")]
+    Range {
+        origin: String,
+        field: &'static str,
+        value: f64,
+        allowed: &'static str,
+    },
+}
+
+impl DetailParams {
+    /// Checks every field against its allowed range (`origin` names the file in errors).
+    pub fn validate(&self, origin: &str) -> Result<(), DetailError> {
+        let checks: [(&'static str, f64, f64, f64, &'static str); 13] = [
+            ("hurst", self.hurst, 0.05, 1.0, "[0.05, 1]"),
+            ("lacunarity", self.lacunarity, 1.4, 4.0, "[1.4, 4]"),
+            ("floor_m", self.floor_m, 0.001, 1e6, "[0.001, 1e6]"),
+            (
+                "octaves_below_data",
+                self.octaves_below_data,
+                0.0,
+                4.0,
+                "[0, 4]",
+            ),
+            (
+                "amplitude_min_m",
+                self.amplitude_min_m,
+                0.0,
+                1e4,
+                "[0, 10000]",
+            ),
+            ("roughness_gain", self.roughness_gain, 0.0, 10.0, "[0, 10]"),
+            (
+                "amplitude_max_m",
+                self.amplitude_max_m,
+                0.0,
+                1e4,
+                "[0, 10000]",
+            ),
+            (
+                "height_roughness",
+                self.height_roughness,
+                0.0,
+                0.95,
+                "[0, 0.95]",
+            ),
+            ("geometry_cut", self.geometry_cut, 1e-3, 4.0, "[0.001, 4]"),
+            (
+                "warp.lever_cells",
+                self.warp.lever_cells,
+                0.0,
+                64.0,
+                "[0, 64]",
+            ),
+            (
+                "warp.c1",
+                self.warp.c1[0].abs().max(self.warp.c1[1].abs()),
+                0.0,
+                100.0,
+                "|c| ≤ 100",
+            ),
+            (
+                "warp.c2",
+                self.warp.c2[0].abs().max(self.warp.c2[1].abs()),
+                0.0,
+                100.0,
+                "|c| ≤ 100",
+            ),
+            (
+                "warp.c3",
+                self.warp.c3[0].abs().max(self.warp.c3[1].abs()),
+                0.0,
+                100.0,
+                "|c| ≤ 100",
+            ),
+        ];
+        for (field, value, lo, hi, allowed) in checks {
+            // `!(a <= v)` also catches NaN.
+            if !(lo <= value && value <= hi) {
+                return Err(DetailError::Range {
+                    origin: origin.to_string(),
+                    field,
+                    value,
+                    allowed,
+                });
+            }
+        }
+        Ok(())
+    }
+
+    /// Reads and validates a detail file.
+    pub fn load(path: &Path) -> Result<Self, DetailError> {
+        let text = std::fs::read_to_string(path).map_err(|source| DetailError::Read {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        let params: Self = serde_json::from_str(&text).map_err(|e| DetailError::Parse {
+            path: path.to_path_buf(),
+            message: e.to_string(),
+        })?;
+        params.validate(&path.display().to_string())?;
+        Ok(params)
+    }
+
+    /// Writes the parameters as pretty JSON.
+    pub fn save(&self, path: &Path) -> Result<(), DetailError> {
+        let text = serde_json::to_string_pretty(self).expect("parameters serialize");
+        std::fs::write(path, text + "\n").map_err(|source| DetailError::Write {
+            path: path.to_path_buf(),
+            source,
+        })
+    }
+
+    /// R_0 = 1/(r·H) (§2.2).
+    pub fn r0_roughness(&self) -> f64 {
+        1.0 / (self.lacunarity * self.hurst)
+    }
+}
+
+/// `--detail off|default|FILE`.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum DetailSpec {
+    Off,
+    Default,
+    File(PathBuf),
+}
+
+impl std::str::FromStr for DetailSpec {
+    type Err = std::convert::Infallible;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        Ok(match s {
+            "off" => Self::Off,
+            "default" | "on" => Self::Default,
+            path => Self::File(PathBuf::from(path)),
+        })
+    }
+}
+
+impl DetailSpec {
+    /// The parameters it names (`None`: detail off).
+    pub fn params(&self) -> Result<Option<DetailParams>, DetailError> {
+        match self {
+            Self::Off => Ok(None),
+            Self::Default => Ok(Some(DetailParams::default())),
+            Self::File(path) => DetailParams::load(path).map(Some),
+        }
+    }
+}
+
+/// One octave as every evaluation uses it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Octave {
+    /// L_k, metres.
+    pub cell_m: f64,
+    /// a_k = r^−kH.
+    pub amplitude: f64,
+    /// Q_k: the lattice's orientation (a fixed random rotation per octave, so no two octaves
+    /// share lattice planes).
+    pub rotation: DMat3,
+    /// The lattice hash's seed.
+    pub seed: u32,
+}
+
+/// The lattice of one octave as the GPU sees it around a reference point: x = frac + M·Δu,
+/// cell = anchor + ⌊x⌋ (M = Q_k·R/L_k; Δu: unit-vector offset from the reference point).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct OctaveAnchorF32 {
+    pub m: [[f32; 3]; 3],
+    pub frac: [f32; 3],
+    pub cell: [i32; 3],
+    pub seed: u32,
+}
+
+/// The octaves a clipmap level holds: `full` whole ones (summed into its heights) and
+/// `partial` ones after them, kept apart so the vertex can weight them by its own λ.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub struct LevelOctaves {
+    pub full: u32,
+    pub partial: u32,
+}
+
+/// The detail of one terrain: parameters, octave table and relief map.
+#[derive(Clone, Debug)]
+pub struct Detail {
+    params: DetailParams,
+    radius_m: f64,
+    octaves: Vec<Octave>,
+    roughness: RoughnessMap,
+    /// (L_0 / relief cell)^H: relief at the map's scale continued to the first octave's.
+    relief_scale: f64,
+}
+
+impl Detail {
+    /// The detail over `terrain`: relief map from its bounds, L_0 from its resolution.
+    pub fn for_terrain(params: DetailParams, terrain: &Terrain) -> Self {
+        let cols = (360.0 / RoughnessMap::DEFAULT_CELL_DEG) as u32;
+        let roughness = RoughnessMap::of_terrain(terrain, cols);
+        Self::new(
+            params,
+            terrain.radius_m(),
+            terrain_spacing_m(terrain),
+            roughness,
+        )
+    }
+
+    /// The detail below data of pixel spacing `data_spacing_m` with relief `roughness`.
+    pub fn new(
+        params: DetailParams,
+        radius_m: f64,
+        data_spacing_m: f64,
+        roughness: RoughnessMap,
+    ) -> Self {
+        let r = params.lacunarity;
+        let first_cell_m = data_spacing_m / r.powf(params.octaves_below_data);
+        let count = if params.floor_m > first_cell_m {
+            0
+        } else {
+            (((first_cell_m / params.floor_m).ln() / r.ln()).floor() as usize + 1).min(MAX_OCTAVES)
+        };
+        let octaves = (0..count)
+            .map(|k| {
+                let h = noise::pcg3d(params.seed, k as u32, 0x5eed);
+                let q = DQuat::from_xyzw(
+                    unit(h[0]) - 0.5,
+                    unit(h[1]) - 0.5,
+                    unit(h[2]) - 0.5,
+                    unit(noise::pcg3d(h[2], h[1], h[0])[0]) - 0.5 + 1e-3,
+                )
+                .normalize();
+                Octave {
+                    cell_m: first_cell_m * r.powi(-(k as i32)),
+                    amplitude: r.powf(-(k as f64) * params.hurst),
+                    rotation: DMat3::from_quat(q),
+                    seed: noise::pcg3d(params.seed, k as u32, 1)[0],
+                }
+            })
+            .collect();
+        let relief_cell_m = 1.5 * roughness.cell_m();
+        let relief_scale = (first_cell_m / relief_cell_m).min(1.0).powf(params.hurst);
+        Self {
+            params,
+            radius_m,
+            octaves,
+            roughness,
+            relief_scale,
+        }
+    }
+
+    pub fn params(&self) -> &DetailParams {
+        &self.params
+    }
+
+    pub fn octaves(&self) -> &[Octave] {
+        &self.octaves
+    }
+
+    pub fn roughness(&self) -> &RoughnessMap {
+        &self.roughness
+    }
+
+    pub fn radius_m(&self) -> f64 {
+        self.radius_m
+    }
+
+    /// (L_0/relief cell)^H.
+    pub fn relief_scale(&self) -> f64 {
+        self.relief_scale
+    }
+
+    /// n: octaves from the first to the floor.
+    pub fn octave_count(&self) -> usize {
+        self.octaves.len()
+    }
+
+    /// σ for a relief of `relief_m`: the first octave's amplitude.
+    pub fn amplitude_for_relief_m(&self, relief_m: f64) -> f64 {
+        let p = &self.params;
+        (p.amplitude_min_m + p.roughness_gain * relief_m * self.relief_scale)
+            .clamp(0.0, p.amplitude_max_m)
+    }
+
+    /// σ(u).
+    pub fn amplitude_m(&self, u: DVec3) -> f64 {
+        self.amplitude_for_relief_m(self.roughness.relief_at_m(u))
+    }
+
+    /// λ_geo at arc distance `arc_m` from the point under the viewer (module docs).
+    pub fn lambda_at_arc_m(&self, arc_m: f64) -> f64 {
+        let n = self.octaves.len() as f64;
+        let Some(first) = self.octaves.first() else {
+            return 0.0;
+        };
+        if arc_m <= 0.0 {
+            return n;
+        }
+        let l = (first.cell_m / (self.params.geometry_cut * arc_m)).ln()
+            / self.params.lacunarity.ln()
+            + 1.0;
+        l.clamp(0.0, n)
+    }
+
+    /// (x, y, n) with λ(θ̃) = clamp(x − y·ln θ̃, 0, n): [`Detail::lambda_at_angle`] as the
+    /// vertex shader evaluates it.
+    pub fn lambda_constants(&self) -> (f64, f64, f64) {
+        let n = self.octaves.len() as f64;
+        let Some(first) = self.octaves.first() else {
+            return (0.0, 0.0, 0.0);
+        };
+        let y = 1.0 / self.params.lacunarity.ln();
+        let x = (first.cell_m / (self.params.geometry_cut * self.radius_m)).ln() * y + 1.0;
+        (x, y, n)
+    }
+
+    /// λ at view-space angle θ̃ from the viewer.
+    pub fn lambda_at_angle(&self, theta_tilde_rad: f64) -> f64 {
+        self.lambda_at_arc_m(theta_tilde_rad * self.radius_m)
+    }
+
+    /// Every octave (the ground a camera stands on).
+    pub fn lambda_full(&self) -> f64 {
+        self.octaves.len() as f64
+    }
+
+    /// w_k(λ) = clamp(λ − k, 0, 1).
+    pub fn weight(k: usize, lambda: f64) -> f64 {
+        (lambda - k as f64).clamp(0.0, 1.0)
+    }
+
+    /// D(u, λ) in metres (f64, the reference).
+    pub fn height_m(&self, u: DVec3, lambda: f64) -> f64 {
+        let sigma = self.amplitude_m(u);
+        if sigma == 0.0 {
+            return 0.0;
+        }
+        sigma * self.normalized(u, lambda)
+    }
+
+    /// Σ_k w_k(λ)·t_k (units of σ).
+    pub fn normalized(&self, u: DVec3, lambda: f64) -> f64 {
+        self.normalized_first(u, lambda, usize::MAX)
+    }
+
+    /// Σ_{k < count} w_k(λ)·t_k: the first `count` octaves (units of σ).
+    pub fn normalized_first(&self, u: DVec3, lambda: f64, count: usize) -> f64 {
+        let p = &self.params;
+        let r0 = p.r0_roughness();
+        let mut state = warp::WarpState::start();
+        let mut h_all = 0f64;
+        let mut out = 0.0;
+        let position = u * self.radius_m;
+        for (k, o) in self.octaves.iter().enumerate().take(count) {
+            let w = Self::weight(k, lambda);
+            if w == 0.0 {
+                break;
+            }
+            let d = state.displacement(&p.warp, r0);
+            let x = o.rotation * position / o.cell_m + DVec3::new(d[0], d[1], 0.0);
+            let (cell, frac) = noise::split(x.to_array());
+            let s = noise::value_noise(cell, frac, o.seed);
+            let m = 1.0 + p.height_roughness * h_all.clamp(-1.0, 1.0);
+            let t = o.amplitude * m * s;
+            h_all += t;
+            out += w * t;
+            state.advance(&p.warp, r0, h_all);
+        }
+        out
+    }
+
+    /// Bound of |Σ w_k t_k| for octaves up to λ (units of σ).
+    pub fn normalized_bound(&self, lambda: f64) -> f64 {
+        self.normalized_bound_from(lambda, 0)
+    }
+
+    /// Bound of |Σ_{k ≥ first} w_k t_k| (units of σ).
+    pub fn normalized_bound_from(&self, lambda: f64, first: usize) -> f64 {
+        let m = 1.0 + self.params.height_roughness;
+        self.octaves
+            .iter()
+            .enumerate()
+            .skip(first)
+            .map(|(k, o)| Self::weight(k, lambda) * o.amplitude * m)
+            .sum()
+    }
+
+    /// Bound of |∇ Σ w_k t_k| per metre along the sphere for octaves up to λ (units of σ): the
+    /// chain rule through the warp and the height-dependent roughness (module docs of
+    /// [`warp`]), with |∇S| ≤ [`noise::GRADIENT_MAX`] per cell.
+    pub fn normalized_slope_bound(&self, lambda: f64) -> f64 {
+        self.normalized_slope_bound_first(lambda, usize::MAX)
+    }
+
+    /// As [`Detail::normalized_slope_bound`] for the first `count` octaves.
+    pub fn normalized_slope_bound_first(&self, lambda: f64, count: usize) -> f64 {
+        let p = &self.params;
+        let r0 = p.r0_roughness();
+        let c1 = (p.warp.c1[0].powi(2) + p.warp.c1[1].powi(2)).sqrt();
+        let m = 1.0 + p.height_roughness;
+        let (mut g_all, mut g_out, mut g_v) = (0.0, 0.0, 0.0);
+        for (k, o) in self.octaves.iter().enumerate().take(count) {
+            let w = Self::weight(k, lambda);
+            if w == 0.0 {
+                break;
+            }
+            // |∂(v / max(|v|, ½))| ≤ |∂v| / ½.
+            let dx = 1.0 / o.cell_m + p.warp.lever_cells * g_v / warp::NORMALIZE_FLOOR;
+            let g_t = o.amplitude * (m * noise::GRADIENT_MAX * dx + p.height_roughness * g_all);
+            g_all += g_t;
+            g_out += w * g_t;
+            g_v += c1 * r0 * g_all;
+        }
+        g_out
+    }
+
+    /// Bounds of D over a cap of `angle_rad` around `u` for octaves up to λ: (|D| max,
+    /// |∇D| max in metres per metre).
+    pub fn bounds_near(&self, u: DVec3, angle_rad: f64, lambda: f64) -> (f64, f64) {
+        let (_, relief, relief_slope) = self.roughness.bounds_near(u, angle_rad);
+        let sigma = self.amplitude_for_relief_m(relief);
+        let sigma_slope = self.params.roughness_gain * self.relief_scale * relief_slope;
+        let hb = self.normalized_bound(lambda);
+        (
+            hb * sigma,
+            sigma * self.normalized_slope_bound(lambda) + sigma_slope * hb,
+        )
+    }
+
+    /// Tight bounds of D over a cap: the octaves much larger than the cap (cells ≥ 4× its
+    /// radius) evaluated at its centre, ± their slope bound times the radius; the finer ones
+    /// by their amplitude. Returns (min, max, |∇D| max) in metres.
+    pub fn bounds_near_tight(&self, u: DVec3, angle_rad: f64, lambda: f64) -> (f64, f64, f64) {
+        let (relief_lo, relief_hi, relief_slope) = self.roughness.bounds_near(u, angle_rad);
+        let (s_lo, s_hi) = (
+            self.amplitude_for_relief_m(relief_lo),
+            self.amplitude_for_relief_m(relief_hi),
+        );
+        let radius_m = angle_rad * self.radius_m;
+        let coarse = self
+            .octaves
+            .iter()
+            .take_while(|o| o.cell_m >= 4.0 * radius_m)
+            .count();
+        let centre = self.normalized_first(u, lambda, coarse);
+        let spread = self.normalized_slope_bound_first(lambda, coarse) * radius_m
+            + self.normalized_bound_from(lambda, coarse);
+        let (h_lo, h_hi) = (centre - spread, centre + spread);
+        let lo = (s_lo * h_lo).min(s_hi * h_lo);
+        let hi = (s_lo * h_hi).max(s_hi * h_hi);
+        let sigma_slope = self.params.roughness_gain * self.relief_scale * relief_slope;
+        let slope =
+            s_hi * self.normalized_slope_bound(lambda) + sigma_slope * h_lo.abs().max(h_hi.abs());
+        (lo, hi, slope)
+    }
+
+    /// The octaves level `level` holds, for a ring blend over the outer `blend_fraction` of
+    /// each level: whole where every point of the level (and the blend of the next finer
+    /// level, which reads this one) has weight 1, partial where some has less.
+    pub fn level_octaves(&self, level: u32, blend_fraction: f64) -> LevelOctaves {
+        let outer = crate::clipmap::settings::level_outer_theta_rad(level);
+        let lo = self.lambda_at_angle(outer);
+        let hi = self.lambda_at_angle(outer * (-(1.0 + blend_fraction)).exp2());
+        let n = self.octaves.len() as u32;
+        let full = (lo.floor() as u32).min(n);
+        let partial = ((hi.ceil() as u32).saturating_sub(full)).min(MAX_PARTIAL as u32);
+        LevelOctaves {
+            full,
+            partial: partial.min(n - full),
+        }
+    }
+
+    /// The lattices of octaves `first..first + count` around the unit vector `u_ref`, for
+    /// the GPU: integer anchor cells in f64, the small remainder and the matrix in f32.
+    pub fn anchors(&self, u_ref: DVec3, count: usize) -> Vec<OctaveAnchorF32> {
+        let position = u_ref * self.radius_m;
+        self.octaves
+            .iter()
+            .take(count)
+            .map(|o| {
+                let m = o.rotation * (self.radius_m / o.cell_m);
+                let x = o.rotation * position / o.cell_m;
+                let (cell, frac) = noise::split(x.to_array());
+                let row = |i: usize| [m.x_axis[i] as f32, m.y_axis[i] as f32, m.z_axis[i] as f32];
+                OctaveAnchorF32 {
+                    m: [row(0), row(1), row(2)],
+                    frac: frac.map(|f| f as f32),
+                    cell,
+                    seed: o.seed,
+                }
+            })
+            .collect()
+    }
+}
+
+/// The output of a fill texel (f32 twin of the WGSL `detail_texel`).
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub struct DetailTexelF32 {
+    /// σ·Σ of the whole octaves, metres.
+    pub full_m: f32,
+    /// σ·t_k of each partial octave, metres.
+    pub partial_m: [f32; MAX_PARTIAL],
+}
+
+/// The constants every evaluation of a detail reads, in f32 (the GPU's).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DetailConstantsF32 {
+    pub lever: f32,
+    pub t: [f32; 2],
+    pub c1r0: [f32; 2],
+    pub c2: [f32; 2],
+    pub height_roughness: f32,
+}
+
+impl Detail {
+    pub fn constants_f32(&self) -> DetailConstantsF32 {
+        let p = &self.params;
+        let r0 = p.r0_roughness();
+        DetailConstantsF32 {
+            lever: p.warp.lever_cells as f32,
+            t: [(p.warp.c3[0] / r0) as f32, (p.warp.c3[1] / r0) as f32],
+            c1r0: [(p.warp.c1[0] * r0) as f32, (p.warp.c1[1] * r0) as f32],
+            c2: [p.warp.c2[0] as f32, p.warp.c2[1] as f32],
+            height_roughness: p.height_roughness as f32,
+        }
+    }
+
+    pub fn amplitudes_f32(&self) -> Vec<f32> {
+        self.octaves.iter().map(|o| o.amplitude as f32).collect()
+    }
+}
+
+/// The f32 twin of the fill's detail (shaders/common/detail.wgsl `detail_texel`): octaves
+/// `0..full + partial` at Δu from the anchors' reference point, amplitude `sigma`.
+pub fn detail_texel_f32(
+    anchors: &[OctaveAnchorF32],
+    amplitudes: &[f32],
+    c: &DetailConstantsF32,
+    du: [f32; 3],
+    sigma: f32,
+    octaves: LevelOctaves,
+) -> DetailTexelF32 {
+    let mut out = DetailTexelF32::default();
+    let mut state = warp::WarpStateF32::start();
+    let mut h_all = 0f32;
+    let mut full = 0f32;
+    let count = (octaves.full + octaves.partial) as usize;
+    for k in 0..count {
+        let a = &anchors[k];
+        let d = state.displacement(c.lever, c.t);
+        let mut x = [0f32; 3];
+        for (i, xi) in x.iter_mut().enumerate() {
+            let row = a.m[i];
+            *xi = a.frac[i] + (row[0] * du[0] + row[1] * du[1] + row[2] * du[2]);
+        }
+        x[0] += d[0];
+        x[1] += d[1];
+        let fl = x.map(f32::floor);
+        let cell = [
+            a.cell[0].wrapping_add(fl[0] as i32),
+            a.cell[1].wrapping_add(fl[1] as i32),
+            a.cell[2].wrapping_add(fl[2] as i32),
+        ];
+        let frac = [x[0] - fl[0], x[1] - fl[1], x[2] - fl[2]];
+        let s = noise::value_noise_f32(cell, frac, a.seed);
+        let m = 1.0 + c.height_roughness * h_all.clamp(-1.0, 1.0);
+        let t = amplitudes[k] * m * s;
+        h_all += t;
+        if (k as u32) < octaves.full {
+            full += t;
+        } else {
+            out.partial_m[k - octaves.full as usize] = sigma * t;
+        }
+        state.advance(c.c1r0, c.c2, h_all);
+    }
+    out.full_m = sigma * full;
+    out
+}
+
+/// Pixel spacing of the terrain's data at the equator, metres (the analytic planet: half its
+/// shortest wavelength).
+pub fn terrain_spacing_m(terrain: &Terrain) -> f64 {
+    match terrain.analytic() {
+        Some(p) => {
+            let omega = p.scales.iter().map(|s| s.omega).fold(1.0, f64::max);
+            std::f64::consts::PI * p.radius_m / omega
+        }
+        None => {
+            let d = terrain.dem().expect("a terrain is analytic or a DEM");
+            d.pyramid().grid(0).dlat_deg.to_radians() * d.radius_m()
+        }
+    }
+}
+
+fn unit(h: u32) -> f64 {
+    h as f64 / 4_294_967_296.0
+}

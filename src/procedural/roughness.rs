@@ -1,0 +1,165 @@
+//! The data's local relief, the amplitude the detail is tied to (issue: "local roughness from
+//! the pyramid"): a global grid of max − min of the terrain over each cell, from the DEM
+//! pyramid's min/max planes (or the analytic planet's bounds), sampled bilinearly so the
+//! amplitude, and with it the detail, is continuous everywhere.
+//!
+//! The grid's outermost rows hold their own mean, so the relief has one value at each pole.
+//! The same f32 values go to the GPU (the fill reads them with the same bilinear rule).
+
+use std::f64::consts::{PI, TAU};
+
+use glam::DVec3;
+
+use crate::geo::sphere;
+use crate::terrain::Terrain;
+
+/// Relief per cell, rows north to south, columns from φ = 0 eastward.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RoughnessMap {
+    pub cols: u32,
+    pub rows: u32,
+    /// max − min of the terrain within each cell, metres.
+    pub values: Vec<f32>,
+    /// Largest |∇relief| (metres per metre) between row r and r + 1, for each r (the slope
+    /// bound of the amplitude; rows near the poles are narrow east–west).
+    row_slope: Vec<f64>,
+    radius_m: f64,
+}
+
+impl RoughnessMap {
+    /// Cell size of the default map: 0.5° (≈ 55 km): relief at the scale of a mountain range.
+    pub const DEFAULT_CELL_DEG: f64 = 0.5;
+
+    /// Relief of `terrain` over `cols × rows` cells (`rows = cols / 2`).
+    pub fn of_terrain(terrain: &Terrain, cols: u32) -> Self {
+        let rows = (cols / 2).max(2);
+        let dphi = TAU / cols as f64;
+        let dtheta = PI / rows as f64;
+        let mut values = vec![0f32; (cols * rows) as usize];
+        for r in 0..rows {
+            let theta = (r as f64 + 0.5) * dtheta;
+            for c in 0..cols {
+                let phi = (c as f64 + 0.5) * dphi;
+                let u = sphere::unit_vector(phi, theta);
+                // A cap reaching the cell's corners at the equator (half a cell diagonal).
+                let (lo, hi) = terrain.height_bounds_near_m(u, 0.75 * dtheta);
+                values[(r * cols + c) as usize] = (hi - lo).max(0.0) as f32;
+            }
+        }
+        Self::from_values(cols, rows, values, terrain.radius_m())
+    }
+
+    /// A map of given values (rows north to south); the outermost rows are set to their mean.
+    pub fn from_values(cols: u32, rows: u32, mut values: Vec<f32>, radius_m: f64) -> Self {
+        for r in [0, rows - 1] {
+            let row = &mut values[(r * cols) as usize..((r + 1) * cols) as usize];
+            let mean = row.iter().map(|&v| v as f64).sum::<f64>() / cols as f64;
+            row.iter_mut().for_each(|v| *v = mean as f32);
+        }
+        let dphi = TAU / cols as f64;
+        let dtheta = PI / rows as f64;
+        let at = |r: u32, c: u32| values[(r * cols + c % cols) as usize] as f64;
+        let row_slope = (0..rows)
+            .map(|r| {
+                let r1 = (r + 1).min(rows - 1);
+                // The narrowest east–west spacing of the band between the two rows.
+                let theta_lo = (r as f64 + 0.5) * dtheta;
+                let theta_hi = (r1 as f64 + 0.5) * dtheta;
+                let sin_min = theta_lo.sin().min(theta_hi.sin()).max(1e-9);
+                let mut worst = 0f64;
+                for c in 0..cols {
+                    let d_ew = (at(r, c + 1) - at(r, c))
+                        .abs()
+                        .max((at(r1, c + 1) - at(r1, c)).abs());
+                    let d_ns = (at(r1, c) - at(r, c)).abs();
+                    worst = worst.max(d_ew / (sin_min * dphi)).max(d_ns / dtheta);
+                }
+                // Bilinear: each axis at most its largest difference over its spacing.
+                worst * std::f64::consts::SQRT_2 / radius_m
+            })
+            .collect();
+        Self {
+            cols,
+            rows,
+            values,
+            row_slope,
+            radius_m,
+        }
+    }
+
+    fn at(&self, r: i64, c: i64) -> f64 {
+        let r = r.clamp(0, self.rows as i64 - 1);
+        let c = c.rem_euclid(self.cols as i64);
+        self.values[(r * self.cols as i64 + c) as usize] as f64
+    }
+
+    /// Relief at (φ, θ), bilinear between cell centres (columns wrap, rows clamp).
+    pub fn relief_m(&self, phi: f64, theta: f64) -> f64 {
+        let x = phi.rem_euclid(TAU) / TAU * self.cols as f64 - 0.5;
+        let y = theta.clamp(0.0, PI) / PI * self.rows as f64 - 0.5;
+        let (x0, y0) = (x.floor(), y.floor());
+        let (fx, fy) = (x - x0, y - y0);
+        let (c, r) = (x0 as i64, y0 as i64);
+        let top = self.at(r, c) + fx * (self.at(r, c + 1) - self.at(r, c));
+        let bottom = self.at(r + 1, c) + fx * (self.at(r + 1, c + 1) - self.at(r + 1, c));
+        top + fy * (bottom - top)
+    }
+
+    pub fn relief_at_m(&self, u: DVec3) -> f64 {
+        let (phi, theta) = phi_theta_of_unit(u);
+        self.relief_m(phi, theta)
+    }
+
+    /// Smallest and largest relief within `angle_rad` of `u` and the largest |∇relief| there
+    /// (m per m).
+    pub fn bounds_near(&self, u: DVec3, angle_rad: f64) -> (f64, f64, f64) {
+        let (phi, theta) = phi_theta_of_unit(u);
+        let dtheta = PI / self.rows as f64;
+        let dphi = TAU / self.cols as f64;
+        // Rows whose cells (and the bilinear band to the next row) can touch the cap.
+        let r_lo = ((theta - angle_rad) / dtheta - 1.0).floor().max(0.0) as i64;
+        let r_hi = (((theta + angle_rad) / dtheta + 1.0).ceil() as i64).min(self.rows as i64 - 1);
+        // Columns: the cap's east–west half-width at its widest row (every column when the
+        // cap reaches a pole).
+        let sin_min = (theta - angle_rad).sin().min((theta + angle_rad).sin());
+        let reaches_pole = theta - angle_rad <= 0.0 || theta + angle_rad >= PI;
+        let span = if reaches_pole || sin_min <= 0.0 {
+            self.cols as i64
+        } else {
+            ((angle_rad / sin_min) / dphi).ceil() as i64 + 1
+        };
+        let c0 = (phi.rem_euclid(TAU) / dphi).floor() as i64;
+        let columns: Vec<i64> = if 2 * span + 1 >= self.cols as i64 {
+            (0..self.cols as i64).collect()
+        } else {
+            (c0 - span..=c0 + span).collect()
+        };
+        let mut relief = 0f64;
+        let mut relief_min = f64::INFINITY;
+        let mut slope = 0f64;
+        for r in r_lo..=r_hi {
+            slope = slope.max(self.row_slope[r as usize]);
+            for &c in &columns {
+                relief = relief.max(self.at(r, c));
+                relief_min = relief_min.min(self.at(r, c));
+            }
+        }
+        (relief_min.min(relief), relief, slope)
+    }
+
+    /// The largest relief anywhere.
+    pub fn max_relief_m(&self) -> f64 {
+        self.values.iter().copied().fold(0f32, f32::max) as f64
+    }
+
+    /// Cell size along a meridian, metres.
+    pub fn cell_m(&self) -> f64 {
+        PI / self.rows as f64 * self.radius_m
+    }
+}
+
+/// (φ, θ) of a unit vector.
+pub fn phi_theta_of_unit(u: DVec3) -> (f64, f64) {
+    let (phi, theta, _) = sphere::phi_theta_height_from_ecef_m(u, 1.0);
+    (phi, theta)
+}
