@@ -56,6 +56,22 @@ struct RingVertex {
     @location(5) seam_side: f32,
 }
 
+// Rust twin: render::gpu_data::BumpUniforms. The detail's octaves finer than geometry holds,
+// down to two pixels, shaded as bump (the split octave, geometry-image-warping.md §4.1),
+// each octave's lattice anchored at the viewer: x = frac + N·Δu (N = Q·R/L·world_from_view).
+struct BumpUniforms {
+    octaves: array<DetailOctave, MAX_OCTAVES>,
+    amplitudes: array<vec4<f32>, DETAIL_AMPLITUDE_VECS>,
+    // Amplitude floor, gain·(L_0/cell)^H, cap (m); radius (m).
+    sigma: vec4<f32>,
+    // λ_px(d) = clamp(x − ln d · y, 0, z): octaves of at least two pixels at distance d.
+    lambda_px: vec4<f32>,
+    // Rows of world_from_view (xyz); w: relief map columns, rows, 0.
+    world0: vec4<f32>,
+    world1: vec4<f32>,
+    world2: vec4<f32>,
+}
+
 struct VertexOut {
     @builtin(position) clip: vec4<f32>,
     // (Δφ, Δθ) of the vertex, interpolated like the paper's texture coordinates (§4.4).
@@ -63,6 +79,8 @@ struct VertexOut {
     @location(1) p_tilde: vec3<f32>,
     @location(2) coarse_blend: f32,
     @location(3) @interpolate(flat) level: u32,
+    // Distance from the eye, metres (the bump's pixel footprint).
+    @location(4) dist: f32,
 }
 
 @group(0) @binding(0) var<uniform> frame: FrameUniforms;
@@ -70,6 +88,8 @@ struct VertexOut {
 @group(0) @binding(2) var heights: texture_2d_array<f32>;
 // σ·t_k of each level's partial octaves (common/detail_fill.wgsl), weighted here by λ(θ̃).
 @group(0) @binding(3) var partials: texture_2d_array<f32>;
+@group(0) @binding(4) var<uniform> bump: BumpUniforms;
+@group(0) @binding(5) var<storage, read> relief: array<f32>;
 
 fn wrap_texel(i: i32) -> i32 {
     let s = i32(frame.texture_size);
@@ -180,7 +200,66 @@ fn vs_main(v: RingVertex) -> VertexOut {
     out.p_tilde = v.p_tilde;
     out.coarse_blend = blend;
     out.level = v.level;
+    out.dist = length(rel);
     return out;
+}
+
+// The relief map at world unit vector w: bilinear between cell centres (as the fills read it).
+fn relief_at_world(w: vec3<f32>) -> f32 {
+    let dims = vec2<i32>(i32(bump.world0.w), i32(bump.world1.w));
+    let phi = atan2(w.y, w.x);
+    let theta = atan2(length(w.xy), w.z);
+    let x = fract(phi * 0.15915494309) * f32(dims.x) - 0.5;
+    let y = theta * 0.31830988618 * f32(dims.y) - 0.5;
+    let x0 = floor(x);
+    let y0 = floor(y);
+    let c0 = ((i32(x0) % dims.x) + dims.x) % dims.x;
+    let c1 = (c0 + 1) % dims.x;
+    let r0 = clamp(i32(y0), 0, dims.y - 1);
+    let r1 = clamp(i32(y0) + 1, 0, dims.y - 1);
+    let top = mix(relief[r0 * dims.x + c0], relief[r0 * dims.x + c1], x - x0);
+    let bottom = mix(relief[r1 * dims.x + c0], relief[r1 * dims.x + c1], x - x0);
+    return mix(top, bottom, y - y0);
+}
+
+// Gradient (view space, metres per metre) of the bump octaves at view direction u: the
+// weights each octave lacks in geometry (w_k(λ_px) − w_k(λ_geo)). The bump octaves continue
+// the lattices unwarped and at the base amplitude (no height-dependent roughness): shading
+// only, never measured.
+fn bump_gradient(u: vec3<f32>, lambda_geo: f32, dist: f32) -> vec3<f32> {
+    let c = bump.lambda_px;
+    if c.z <= 0.0 {
+        return vec3<f32>(0.0);
+    }
+    let lambda_px = clamp(c.x - log(max(dist, 1e-6)) * c.y, 0.0, c.z);
+    if lambda_px <= lambda_geo {
+        return vec3<f32>(0.0);
+    }
+    // Δu from the viewer (0, 0, 1) without cancellation: 1 − z = |xy|²/(1 + z).
+    let xy2 = dot(u.xy, u.xy);
+    let du = vec3<f32>(u.x, u.y, -xy2 / (1.0 + u.z));
+    var g = vec3<f32>(0.0);
+    let k_end = u32(min(ceil(lambda_px), c.z));
+    for (var k = u32(floor(lambda_geo)); k < k_end; k++) {
+        let wd = clamp(lambda_px - f32(k), 0.0, 1.0) - clamp(lambda_geo - f32(k), 0.0, 1.0);
+        if wd <= 0.0 {
+            continue;
+        }
+        let o = bump.octaves[k];
+        let x = vec3<f32>(
+            o.m0.w + dot(o.m0.xyz, du),
+            o.m1.w + dot(o.m1.xyz, du),
+            o.m2.w + dot(o.m2.xyz, du),
+        );
+        let fl = floor(x);
+        let sg = value_noise_grad(o.cell.xyz + vec3<i32>(fl), x - fl, bitcast<u32>(o.cell.w));
+        // ∂S/∂u = Nᵀ·∂S/∂x.
+        let grad_u = o.m0.xyz * sg.y + o.m1.xyz * sg.z + o.m2.xyz * sg.w;
+        g += wd * bump.amplitudes[k / 4u][k % 4u] * grad_u;
+    }
+    let w = vec3<f32>(dot(bump.world0.xyz, u), dot(bump.world1.xyz, u), dot(bump.world2.xyz, u));
+    let sigma = clamp(bump.sigma.x + bump.sigma.y * relief_at_world(w), 0.0, bump.sigma.z);
+    return sigma * g / bump.sigma.w;
 }
 
 fn height_at_direction(level: u32, u: vec3<f32>, coarse_blend: f32, lambda: f32) -> f32 {
@@ -250,7 +329,9 @@ fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
     let h2m = height_at_direction(level, normalize(u - eps * e2), blend, lambda);
     let g1 = (h1p - h1m) / (2.0 * eps);
     let g2 = (h2p - h2m) / (2.0 * eps);
-    let n = normalize((frame.radius_m + h) * u - g1 * e1 - g2 * e2);
+    var n = normalize((frame.radius_m + h) * u - g1 * e1 - g2 * e2);
+    let gb = bump_gradient(u, lambda, in.dist);
+    n = normalize(n - (gb - dot(gb, n) * n));
 
     let lambert = max(dot(n, frame.sun_view.xyz), 0.0);
     var colour = hypsometric(h) * (0.28 + 0.72 * lambert);

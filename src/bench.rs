@@ -848,6 +848,7 @@ mod view_tests {
             frames: 1,
             base: ClipmapSettings::default(),
             stream: StreamSettings::default(),
+            every: 1,
         };
         let names: Vec<String> = views(&o).unwrap().into_iter().map(|v| v.0).collect();
         assert_eq!(names, ["space", "ground", scenes::CAMERA_VIEW_NAME]);

@@ -93,6 +93,7 @@ fn report_covers_every_setting_and_writes_its_files() {
         frames: 1,
         base: ClipmapSettings::default(),
         stream: StreamSettings::default(),
+        every: 1,
     };
     let rows = report::run(ctx, &terrain, &options, |step| eprintln!("{step:?}")).unwrap();
     let grid = report::settings_grid(&options.base);

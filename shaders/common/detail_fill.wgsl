@@ -7,16 +7,6 @@
 // (integers) and the small remainder at the job's first grid point; a texel adds M·Δu with
 // Δu its unit-vector offset from that point (tens of cells at most, band-limited).
 
-// Rust twin: render::gpu_data::DetailOctaveParams.
-struct DetailOctave {
-    // Rows of M = Q·R/L (xyz) and the anchor's remainder (w).
-    m0: vec4<f32>,
-    m1: vec4<f32>,
-    m2: vec4<f32>,
-    // Anchor cell (xyz) and the octave's hash seed (w, bit pattern).
-    cell: vec4<i32>,
-}
-
 // Rust twin: render::gpu_data::DetailFillParams.
 struct DetailFillParams {
     ref_trig: vec4<f32>,    // sin θr, cos θr, sin φr, cos φr of the first grid point

@@ -2,6 +2,16 @@
 // over a 3-D integer lattice with an integer hash (never `sin`: GPUs differ there).
 // Rust twins: procedural::noise::{pcg3d, lattice_value, value_noise_f32}.
 
+// Rust twin: render::gpu_data::DetailOctaveParams.
+struct DetailOctave {
+    // Rows of M = Q·R/L (xyz) and the anchor's remainder (w).
+    m0: vec4<f32>,
+    m1: vec4<f32>,
+    m2: vec4<f32>,
+    // Anchor cell (xyz) and the octave's hash seed (w, bit pattern).
+    cell: vec4<i32>,
+}
+
 // pcg3d (Jarzynski & Olano 2020).
 fn pcg3d(v_in: vec3<u32>) -> vec3<u32> {
     var v = v_in * 1664525u + 1013904223u;
@@ -71,4 +81,38 @@ fn delta_unit_from(ref_trig: vec4<f32>, dphi: f32, dtheta: f32) -> vec3<f32> {
         st * d_sp + d_st * sp + d_st * d_sp,
         d_ct,
     );
+}
+
+fn fade_slope(t: f32) -> f32 {
+    let s = t * (t - 1.0);
+    return 30.0 * s * s;
+}
+
+// S and its gradient in lattice units at cell + f (the bump's octaves): (value, ∂S/∂x_i).
+fn value_noise_grad(cell: vec3<i32>, f: vec3<f32>, seed: u32) -> vec4<f32> {
+    let w = vec3<f32>(fade(f.x), fade(f.y), fade(f.z));
+    let dw = vec3<f32>(fade_slope(f.x), fade_slope(f.y), fade_slope(f.z));
+    let v000 = lattice_value(cell, seed);
+    let v100 = lattice_value(cell + vec3<i32>(1, 0, 0), seed);
+    let v010 = lattice_value(cell + vec3<i32>(0, 1, 0), seed);
+    let v110 = lattice_value(cell + vec3<i32>(1, 1, 0), seed);
+    let v001 = lattice_value(cell + vec3<i32>(0, 0, 1), seed);
+    let v101 = lattice_value(cell + vec3<i32>(1, 0, 1), seed);
+    let v011 = lattice_value(cell + vec3<i32>(0, 1, 1), seed);
+    let v111 = lattice_value(cell + vec3<i32>(1, 1, 1), seed);
+    let k1 = v100 - v000;
+    let k2 = v010 - v000;
+    let k3 = v001 - v000;
+    let k4 = v000 - v100 - v010 + v110;
+    let k5 = v000 - v010 - v001 + v011;
+    let k6 = v000 - v100 - v001 + v101;
+    let k7 = -v000 + v100 + v010 - v110 + v001 - v101 - v011 + v111;
+    let value = v000 + k1 * w.x + k2 * w.y + k3 * w.z + k4 * w.x * w.y + k5 * w.y * w.z
+        + k6 * w.z * w.x + k7 * w.x * w.y * w.z;
+    let grad = dw * vec3<f32>(
+        k1 + k4 * w.y + k6 * w.z + k7 * w.y * w.z,
+        k2 + k5 * w.z + k4 * w.x + k7 * w.z * w.x,
+        k3 + k6 * w.x + k5 * w.y + k7 * w.x * w.y,
+    );
+    return vec4<f32>(value, grad);
 }

@@ -87,7 +87,7 @@ impl Default for DetailParams {
             floor_m: 0.01,
             octaves_below_data: 1.0,
             amplitude_min_m: 4.0,
-            roughness_gain: 0.1,
+            roughness_gain: 0.5,
             amplitude_max_m: 600.0,
             height_roughness: 0.3,
             geometry_cut: 0.125,

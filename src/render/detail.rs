@@ -101,6 +101,11 @@ impl DetailResources {
         self.detail.as_ref()
     }
 
+    /// The relief map (the terrain pass's bump reads it too).
+    pub fn relief(&self) -> &wgpu::Buffer {
+        &self.relief
+    }
+
     pub fn capacity(&self) -> u32 {
         self.params.capacity()
     }

@@ -305,7 +305,94 @@ impl From<&OctaveAnchorF32> for DetailOctaveParams {
     }
 }
 
+/// `BumpUniforms` in `shaders/terrain.wgsl`: the detail's octaves anchored at the viewer, for
+/// the fragment's bump octaves (one per frame).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct BumpUniforms {
+    pub octaves: [DetailOctaveParams; MAX_OCTAVES],
+    pub amplitudes: [[f32; 4]; DETAIL_AMPLITUDE_VECS],
+    pub sigma: [f32; 4],
+    pub lambda_px: [f32; 4],
+    pub world0: [f32; 4],
+    pub world1: [f32; 4],
+    pub world2: [f32; 4],
+}
+
+impl BumpUniforms {
+    /// The bump of `view` (none without detail: λ_px's range is 0).
+    pub fn new(view: &ViewPlan, detail: Option<&Detail>) -> Self {
+        let mut b: Self = Zeroable::zeroed();
+        let Some(detail) = detail else {
+            return b;
+        };
+        let w = view.camera.view_frame().world_from_view;
+        let viewer_u = w * glam::DVec3::Z;
+        let n = detail.octave_count();
+        for (k, (o, a)) in b
+            .octaves
+            .iter_mut()
+            .zip(detail.anchors(viewer_u, n))
+            .enumerate()
+        {
+            // N = M·W: lattice cells per unit of view-space Δu.
+            let m = detail.octaves()[k].rotation * (detail.radius_m() / detail.octaves()[k].cell_m);
+            let nm = m * w;
+            let row = |i: usize| {
+                [
+                    nm.x_axis[i] as f32,
+                    nm.y_axis[i] as f32,
+                    nm.z_axis[i] as f32,
+                    a.frac[i],
+                ]
+            };
+            *o = DetailOctaveParams {
+                m0: row(0),
+                m1: row(1),
+                m2: row(2),
+                cell: [a.cell[0], a.cell[1], a.cell[2], a.seed as i32],
+            };
+        }
+        for (k, a) in detail.amplitudes_f32().into_iter().enumerate() {
+            b.amplitudes[k / 4][k % 4] = a;
+        }
+        let p = detail.params();
+        b.sigma = [
+            p.amplitude_min_m as f32,
+            (p.roughness_gain * detail.relief_scale()) as f32,
+            p.amplitude_max_m as f32,
+            detail.radius_m() as f32,
+        ];
+        // Octaves of cells at least two pixels: λ_px(d) = log_r(L_0·focal/(2d)) + 1.
+        let focal_px = view.height_px as f64 / (2.0 * (0.5 * view.fov_y_rad).tan());
+        let first = detail.octaves().first().map_or(1.0, |o| o.cell_m);
+        let y = 1.0 / p.lacunarity.ln();
+        b.lambda_px = [
+            ((first * focal_px / 2.0).ln() * y + 1.0) as f32,
+            y as f32,
+            n as f32,
+            0.0,
+        ];
+        let map = detail.roughness();
+        let row = |i: usize, extra: f32| {
+            [
+                w.x_axis[i] as f32,
+                w.y_axis[i] as f32,
+                w.z_axis[i] as f32,
+                extra,
+            ]
+        };
+        b.world0 = row(0, map.cols as f32);
+        b.world1 = row(1, map.rows as f32);
+        b.world2 = row(2, 0.0);
+        b
+    }
+}
+
 gpu_struct!(DetailOctaveParams as "DetailOctave" { m0, m1, m2, cell });
+gpu_struct!(BumpUniforms as "BumpUniforms" {
+    octaves, amplitudes, sigma, lambda_px, world0, world1, world2,
+});
 gpu_struct!(DetailFillParams as "DetailFillParams" {
     ref_trig, ref_angles, warp, warp2, sigma, counts, amplitudes, octaves,
 });
@@ -383,10 +470,14 @@ pub fn pass_contracts() -> Vec<PassContract> {
                 FrameUniforms::layout(),
                 LevelUniforms::layout(),
                 TransformUniformsF32::layout(),
+                BumpUniforms::layout(),
+                DetailOctaveParams::layout(),
             ],
             buffers: vec![
                 buffer(0, FrameUniforms::wgsl_type()),
                 buffer(1, <[LevelUniforms; MAX_LEVELS as usize]>::wgsl_type()),
+                buffer(4, BumpUniforms::wgsl_type()),
+                buffer(5, "array<f32>".to_string()),
             ],
             vertex: Some((RingVertex::layout(), &RING_VERTEX_ATTRIBUTES)),
             workgroup_size: None,

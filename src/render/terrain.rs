@@ -18,7 +18,7 @@ use super::RenderError;
 use super::dem_feed::{DemFeed, FeedFrame};
 use super::detail::{self, DetailResources};
 use super::fill::{FillJob, FillPass};
-use super::gpu_data::{self, FrameUniforms, LevelUniforms, RING_VERTEX_ATTRIBUTES};
+use super::gpu_data::{self, BumpUniforms, FrameUniforms, LevelUniforms, RING_VERTEX_ATTRIBUTES};
 use super::shader::{self, MAX_LEVELS};
 
 pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
@@ -82,6 +82,7 @@ pub struct TerrainRenderer {
     /// The procedural detail's fill resources and the partial-octave level textures.
     detail: DetailResources,
     partials: wgpu::Texture,
+    bump_buffer: wgpu::Buffer,
 }
 
 impl TerrainRenderer {
@@ -175,6 +176,12 @@ impl TerrainRenderer {
         );
         detail_resources.bind(device, &partials_view);
 
+        let bump_buffer = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("bump uniforms"),
+            size: std::mem::size_of::<BumpUniforms>() as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
         let uniform_entry = |binding| wgpu::BindGroupLayoutEntry {
             binding,
             visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
@@ -210,6 +217,17 @@ impl TerrainRenderer {
                     },
                     count: None,
                 },
+                uniform_entry(4),
+                wgpu::BindGroupLayoutEntry {
+                    binding: 5,
+                    visibility: wgpu::ShaderStages::FRAGMENT,
+                    ty: wgpu::BindingType::Buffer {
+                        ty: wgpu::BufferBindingType::Storage { read_only: true },
+                        has_dynamic_offset: false,
+                        min_binding_size: None,
+                    },
+                    count: None,
+                },
             ],
         });
         let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
@@ -231,6 +249,14 @@ impl TerrainRenderer {
                 wgpu::BindGroupEntry {
                     binding: 3,
                     resource: wgpu::BindingResource::TextureView(&partials_view),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 4,
+                    resource: bump_buffer.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 5,
+                    resource: detail_resources.relief().as_entire_binding(),
                 },
             ],
         });
@@ -329,6 +355,7 @@ impl TerrainRenderer {
             heights,
             detail: detail_resources,
             partials,
+            bump_buffer,
         })
     }
 
@@ -538,6 +565,8 @@ impl TerrainRenderer {
         let uniforms =
             FrameUniforms::from_plan(&view, &clipmap, &self.settings, self.overlays, detail);
         queue.write_buffer(&self.frame_buffer, 0, bytemuck::bytes_of(&uniforms));
+        let bump = BumpUniforms::new(&view, detail);
+        queue.write_buffer(&self.bump_buffer, 0, bytemuck::bytes_of(&bump));
 
         // A frame whose camera height came from coarser tiles than its own is not settled,
         // even if those tiles have arrived meanwhile.
