@@ -324,10 +324,13 @@ impl Detail {
     ) -> Self {
         let r = params.lacunarity;
         let first_cell_m = data_spacing_m / r.powf(params.octaves_below_data);
-        let count = if params.floor_m > first_cell_m {
+        // Lattice indices are i32 (the GPU's): cells below R/2³⁰ would overflow them at the
+        // far side of the planet, so the floor is at least that (5.9 mm on Earth).
+        let floor_m = params.floor_m.max(radius_m / (1u64 << 30) as f64);
+        let count = if floor_m > first_cell_m {
             0
         } else {
-            (((first_cell_m / params.floor_m).ln() / r.ln()).floor() as usize + 1).min(MAX_OCTAVES)
+            (((first_cell_m / floor_m).ln() / r.ln()).floor() as usize + 1).min(MAX_OCTAVES)
         };
         let octaves = (0..count)
             .map(|k| {
@@ -577,6 +580,22 @@ impl Detail {
             full,
             partial: partial.min(n - full),
         }
+    }
+
+    /// Whether every level can hold its partial octaves (at most [`MAX_PARTIAL`]) with a ring
+    /// blend over `blend_fraction` of each level: λ spans (1 + b)·ln 2/ln r over a level and
+    /// the finer level's blend band, which must stay within 3 octaves.
+    pub fn check_blend(&self, blend_fraction: f64) -> Result<(), DetailError> {
+        let span = (1.0 + blend_fraction) * std::f64::consts::LN_2 / self.params.lacunarity.ln();
+        if span > (MAX_PARTIAL - 1) as f64 {
+            return Err(DetailError::Range {
+                origin: format!("with blend_fraction {blend_fraction}"),
+                field: "lacunarity",
+                value: self.params.lacunarity,
+                allowed: "≥ 2^((1 + blend_fraction)/3) (a level holds at most 4 partial octaves)",
+            });
+        }
+        Ok(())
     }
 
     /// The lattices of octaves `first..first + count` around the unit vector `u_ref`, for

@@ -11,8 +11,9 @@ use crate::procedural::Detail;
 use super::fill::DispatchParams;
 use super::gpu_data::DetailFillParams;
 
-/// Format of the partial-octave textures: octave values relative to their own amplitude, so
-/// half floats keep them to 5·10⁻⁴ of that amplitude.
+/// Format of the partial-octave textures: σ·t_k in metres. An octave's value is small next to
+/// the whole height, so half floats keep it to one half-float ulp (2⁻¹⁰) of itself (llvmpipe
+/// rounds the store toward zero).
 pub const PARTIALS_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 
 pub struct DetailResources {

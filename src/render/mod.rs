@@ -33,6 +33,8 @@ pub enum RenderError {
     },
     #[error("invalid clipmap settings: {0}")]
     Settings(#[from] crate::clipmap::settings::SettingsError),
+    #[error("procedural detail does not fit these clipmap settings: {0}")]
+    Detail(#[from] crate::procedural::DetailError),
     #[error("GPU readback failed: {0}")]
     Readback(String),
     #[error("the GPU reported an error: {0}")]

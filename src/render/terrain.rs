@@ -116,6 +116,9 @@ impl TerrainRenderer {
                 crate::clipmap::settings::SettingsError::Levels(settings.levels),
             ));
         }
+        if let Some(d) = terrain.detail() {
+            d.check_blend(settings.blend_fraction as f64)?;
+        }
         let mesh = RingMesh::build(&settings);
         let bounds = SectorBounds::new(&mesh);
 
@@ -369,8 +372,49 @@ impl TerrainRenderer {
         let Some(grid) = self.grids.get(level as usize).copied().flatten() else {
             return Ok(None);
         };
+        let texels = self.read_layer(ctx, &self.heights, &grid, 4)?;
+        let out = texels
+            .iter()
+            .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+            .collect();
+        Ok(Some((grid, out)))
+    }
+
+    /// The level's partial detail octaves (σ·t_k of octaves `detail_full`… in RGBA), in grid
+    /// order as [`TerrainRenderer::read_level`], with the index of the first one.
+    pub fn read_level_partials(
+        &self,
+        ctx: &super::GpuContext,
+        level: u32,
+    ) -> Result<Option<LevelPartials>, RenderError> {
+        let Some(grid) = self.grids.get(level as usize).copied().flatten() else {
+            return Ok(None);
+        };
+        let first = self.terrain.detail().map_or(0, |d| {
+            d.level_octaves(level, self.settings.blend_fraction as f64)
+                .full
+        });
+        let texels = self.read_layer(ctx, &self.partials, &grid, 8)?;
+        let out = texels
+            .iter()
+            .map(|b| {
+                std::array::from_fn(|c| f16_to_f32(u16::from_le_bytes([b[2 * c], b[2 * c + 1]])))
+            })
+            .collect();
+        Ok(Some((grid, first, out)))
+    }
+
+    /// The texels of `texture`'s layer `grid.level` in grid order (row gy0 first, column gx0
+    /// first), `bytes` each.
+    fn read_layer(
+        &self,
+        ctx: &super::GpuContext,
+        texture: &wgpu::Texture,
+        grid: &LevelGrid,
+        bytes: u32,
+    ) -> Result<Vec<Vec<u8>>, RenderError> {
         let size = self.settings.texture_size;
-        let row_bytes = (size * 4).div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT)
+        let row_bytes = (size * bytes).div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT)
             * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
         let buffer = ctx.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("level readback"),
@@ -381,12 +425,12 @@ impl TerrainRenderer {
         let mut encoder = ctx.device.create_command_encoder(&Default::default());
         encoder.copy_texture_to_buffer(
             wgpu::TexelCopyTextureInfo {
-                texture: &self.heights,
+                texture,
                 mip_level: 0,
                 origin: wgpu::Origin3d {
                     x: 0,
                     y: 0,
-                    z: level,
+                    z: grid.level,
                 },
                 aspect: wgpu::TextureAspect::All,
             },
@@ -417,21 +461,17 @@ impl TerrainRenderer {
             .get_mapped_range(..)
             .map_err(|e| RenderError::Readback(e.to_string()))?;
         let s = size as i64;
+        let b = bytes as usize;
         let mut out = Vec::with_capacity((size * size) as usize);
         for j in 0..s {
             let ty = (grid.gy0 + j).rem_euclid(s) as usize;
             for i in 0..s {
                 let tx = (grid.gx0 + i).rem_euclid(s) as usize;
-                let at = ty * row_bytes as usize + 4 * tx;
-                out.push(f32::from_le_bytes([
-                    data[at],
-                    data[at + 1],
-                    data[at + 2],
-                    data[at + 3],
-                ]));
+                let at = ty * row_bytes as usize + b * tx;
+                out.push(data[at..at + b].to_vec());
             }
         }
-        Ok(Some((grid, out)))
+        Ok(out)
     }
 
     /// The streaming pipeline, for a DEM.
@@ -647,5 +687,21 @@ impl TerrainRenderer {
         for range in &info.draw.ranges {
             pass.draw_indexed(range.clone(), 0, 0..1);
         }
+    }
+}
+
+/// A level's grid, the index of its first partial octave and the partials per grid point.
+pub type LevelPartials = (LevelGrid, u32, Vec<[f32; 4]>);
+
+/// IEEE half → f32 (the partial-octave textures are RGBA16F).
+fn f16_to_f32(h: u16) -> f32 {
+    let sign = if h & 0x8000 != 0 { -1.0 } else { 1.0 };
+    let exp = ((h >> 10) & 0x1f) as i32;
+    let frac = (h & 0x3ff) as f32;
+    match exp {
+        0 => sign * frac * (-24f32).exp2(),
+        31 if frac == 0.0 => sign * f32::INFINITY,
+        31 => f32::NAN,
+        e => sign * (1.0 + frac / 1024.0) * ((e - 15) as f32).exp2(),
     }
 }
