@@ -79,8 +79,8 @@ struct VertexOut {
     @location(1) p_tilde: vec3<f32>,
     @location(2) coarse_blend: f32,
     @location(3) @interpolate(flat) level: u32,
-    // Distance from the eye, metres (the bump's pixel footprint).
-    @location(4) dist: f32,
+    // Position relative to the eye, metres (the bump's pixel footprint).
+    @location(4) rel: vec3<f32>,
 }
 
 @group(0) @binding(0) var<uniform> frame: FrameUniforms;
@@ -200,7 +200,7 @@ fn vs_main(v: RingVertex) -> VertexOut {
     out.p_tilde = v.p_tilde;
     out.coarse_blend = blend;
     out.level = v.level;
-    out.dist = length(rel);
+    out.rel = rel;
     return out;
 }
 
@@ -226,12 +226,12 @@ fn relief_at_world(w: vec3<f32>) -> f32 {
 // weights each octave lacks in geometry (w_k(λ_px) − w_k(λ_geo)). The bump octaves continue
 // the lattices unwarped and at the base amplitude (no height-dependent roughness): shading
 // only, never measured.
-fn bump_gradient(u: vec3<f32>, lambda_geo: f32, dist: f32) -> vec3<f32> {
+fn bump_gradient(u: vec3<f32>, lambda_geo: f32, footprint_dist: f32) -> vec3<f32> {
     let c = bump.lambda_px;
     if c.z <= 0.0 {
         return vec3<f32>(0.0);
     }
-    let lambda_px = clamp(c.x - log(max(dist, 1e-6)) * c.y, 0.0, c.z);
+    let lambda_px = clamp(c.x - log(max(footprint_dist, 1e-6)) * c.y, 0.0, c.z);
     if lambda_px <= lambda_geo {
         return vec3<f32>(0.0);
     }
@@ -330,7 +330,11 @@ fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
     let g1 = (h1p - h1m) / (2.0 * eps);
     let g2 = (h2p - h2m) / (2.0 * eps);
     var n = normalize((frame.radius_m + h) * u - g1 * e1 - g2 * e2);
-    let gb = bump_gradient(u, lambda, in.dist);
+    // The footprint along the view is stretched by 1/cos of the incidence (grazing views
+    // would alias the bump otherwise), up to 10×.
+    let dist = length(in.rel);
+    let cos_i = max(abs(dot(n, in.rel)) / max(dist, 1e-6), 0.1);
+    let gb = bump_gradient(u, lambda, dist / cos_i);
     n = normalize(n - (gb - dot(gb, n) * n));
 
     let lambert = max(dot(n, frame.sun_view.xyz), 0.0);

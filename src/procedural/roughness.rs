@@ -62,17 +62,19 @@ impl RoughnessMap {
         let row_slope = (0..rows)
             .map(|r| {
                 let r1 = (r + 1).min(rows - 1);
-                // The narrowest east–west spacing of the band between the two rows.
-                let theta_lo = (r as f64 + 0.5) * dtheta;
-                let theta_hi = (r1 as f64 + 0.5) * dtheta;
-                let sin_min = theta_lo.sin().min(theta_hi.sin()).max(1e-9);
+                // East–west, in the band between the rows: (1 − t)·Δ_r + t·Δ_r1 over sin θ·dφ.
+                // Each row's weight falls to 0 towards the other row, so each term is at most
+                // π/2 × its row's difference over its own row's sin θ (sin θ ≥ 2θ/π): the
+                // outermost rows (one value each) add nothing, whatever the poles' narrowing.
+                let sin_of = |row: u32| ((row as f64 + 0.5) * dtheta).sin().max(1e-9);
+                let (s0, s1) = (sin_of(r), sin_of(r1));
                 let mut worst = 0f64;
                 for c in 0..cols {
-                    let d_ew = (at(r, c + 1) - at(r, c))
-                        .abs()
-                        .max((at(r1, c + 1) - at(r1, c)).abs());
+                    let d_ew = std::f64::consts::FRAC_PI_2
+                        * ((at(r, c + 1) - at(r, c)).abs() / s0)
+                            .max((at(r1, c + 1) - at(r1, c)).abs() / s1);
                     let d_ns = (at(r1, c) - at(r, c)).abs();
-                    worst = worst.max(d_ew / (sin_min * dphi)).max(d_ns / dtheta);
+                    worst = worst.max(d_ew / dphi).max(d_ns / dtheta);
                 }
                 // Bilinear: each axis at most its largest difference over its spacing.
                 worst * std::f64::consts::SQRT_2 / radius_m

@@ -71,6 +71,9 @@ pub struct TerrainRenderer {
     passthrough: wgpu::RenderPipeline,
     /// Debug/benchmark: draw with the pass-through pipeline instead of the terrain's.
     pub use_passthrough: bool,
+    /// Measurement: shade every bump octave whatever its size on screen (the naive policy the
+    /// shimmer measurement compares against).
+    pub naive_bump: bool,
     /// Benchmark: a timestamp query set whose queries 2–3 bracket the frame's compute fill.
     pub fill_timestamps: Option<wgpu::QuerySet>,
     fill: FillPass,
@@ -351,6 +354,7 @@ impl TerrainRenderer {
             pipeline,
             passthrough,
             use_passthrough: false,
+            naive_bump: false,
             fill_timestamps: None,
             fill,
             grids,
@@ -605,7 +609,10 @@ impl TerrainRenderer {
         let uniforms =
             FrameUniforms::from_plan(&view, &clipmap, &self.settings, self.overlays, detail);
         queue.write_buffer(&self.frame_buffer, 0, bytemuck::bytes_of(&uniforms));
-        let bump = BumpUniforms::new(&view, detail);
+        let mut bump = BumpUniforms::new(&view, detail);
+        if self.naive_bump {
+            bump.lambda_px = [f32::MAX, 0.0, bump.lambda_px[2], 0.0];
+        }
         queue.write_buffer(&self.bump_buffer, 0, bytemuck::bytes_of(&bump));
 
         // A frame whose camera height came from coarser tiles than its own is not settled,
