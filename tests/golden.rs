@@ -163,8 +163,16 @@ fn coarse() -> ClipmapSettings {
 /// Renders `scene` over the embedded Earth with `settings` and `overlay` at the golden size,
 /// from a fresh renderer (no state carried over from another view), after streaming has
 /// settled.
-fn render(ctx: &GpuContext, scene: &str, settings: ClipmapSettings, overlay: Overlay) -> Vec<u8> {
-    let terrain = Terrain::embedded_earth().expect("embedded Earth");
+fn render(
+    ctx: &GpuContext,
+    scene: &str,
+    settings: ClipmapSettings,
+    overlay: Overlay,
+    detail: bool,
+) -> Vec<u8> {
+    let terrain = Terrain::embedded_earth()
+        .expect("embedded Earth")
+        .with_detail(detail.then(globe::procedural::DetailParams::default));
     let mut r = TerrainRenderer::new(&ctx.device, settings, terrain, COLOR_FORMAT).unwrap();
     r.overlays.levels = overlay == Overlay::Levels;
     let camera = Scene::by_name(scene)
@@ -181,15 +189,15 @@ fn render(ctx: &GpuContext, scene: &str, settings: ClipmapSettings, overlay: Ove
 /// Renders `name` with the default mesh and compares it with `tests/golden/<name>.png` (or
 /// writes it when blessing).
 fn check(name: &str, scene: &str, overlay: Overlay) {
-    check_with(name, scene, ClipmapSettings::default(), overlay);
+    check_with(name, scene, ClipmapSettings::default(), overlay, false);
 }
 
-fn check_with(name: &str, scene: &str, settings: ClipmapSettings, overlay: Overlay) {
+fn check_with(name: &str, scene: &str, settings: ClipmapSettings, overlay: Overlay, detail: bool) {
     let Some((ctx, _guard)) = common::gpu() else {
         return;
     };
     let started = std::time::Instant::now();
-    let actual = render(ctx, scene, settings, overlay);
+    let actual = render(ctx, scene, settings, overlay, detail);
     let golden_path = golden_dir().join(format!("{name}.png"));
     if blessing() {
         std::fs::create_dir_all(golden_dir()).unwrap();
@@ -306,7 +314,37 @@ fn aircraft_error_overlay() {
 /// The error overlay over the coarse mesh: the heat ramp from blue to orange.
 #[test]
 fn everest_coarse_error_overlay() {
-    check_with("everest-coarse-error", "everest", coarse(), Overlay::Error);
+    check_with(
+        "everest-coarse-error",
+        "everest",
+        coarse(),
+        Overlay::Error,
+        false,
+    );
+}
+
+/// The procedural detail (on by default in the viewer; the goldens above are the data alone):
+/// the rolling ground at Garda with its bump shading, and Everest's rock.
+#[test]
+fn ground_with_detail() {
+    check_with(
+        "ground-detail",
+        "ground",
+        ClipmapSettings::default(),
+        Overlay::None,
+        true,
+    );
+}
+
+#[test]
+fn everest_with_detail() {
+    check_with(
+        "everest-detail",
+        "everest",
+        ClipmapSettings::default(),
+        Overlay::None,
+        true,
+    );
 }
 
 /// Every named scene has a golden test above (a scene added to the registry must add one).

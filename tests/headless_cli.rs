@@ -38,3 +38,34 @@ fn render_without_a_display_prints_no_windowing_errors() {
         );
     }
 }
+
+/// `--detail FILE` with a value out of range stops before any rendering, naming the file, the
+/// field and its allowed range; `--detail off` and `--detail default` are accepted.
+#[test]
+fn a_bad_detail_file_is_refused_with_the_field_and_range() {
+    let out = tempfile::tempdir().expect("temp dir");
+    let file = out.path().join("rough.json");
+    std::fs::write(&file, r#"{ "hurst": 3.0 }"#).unwrap();
+    let run = Command::new(env!("CARGO_BIN_EXE_globe"))
+        .args([
+            "render", "--scene", "space", "--width", "8", "--height", "8",
+        ])
+        .arg("--detail")
+        .arg(&file)
+        .arg("--out")
+        .arg(out.path().join("x.png"))
+        .output()
+        .expect("globe runs");
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(!run.status.success());
+    assert!(
+        stderr.contains("rough.json") && stderr.contains("hurst") && stderr.contains("[0.05, 1]"),
+        "{stderr}"
+    );
+    let help = Command::new(env!("CARGO_BIN_EXE_globe"))
+        .args(["render", "--help"])
+        .output()
+        .expect("globe runs");
+    let help = String::from_utf8_lossy(&help.stdout);
+    assert!(help.contains("--detail <off|default|FILE>"), "{help}");
+}

@@ -99,15 +99,16 @@ impl Default for DetailParams {
 /// A detail file that cannot be used.
 #[derive(Debug, thiserror::Error)]
 pub enum DetailError {
-    #[error("cannot read detail file {path}: {source}")]
+    // `cause`, not `source`: the message already quotes it, so an error chain would repeat it.
+    #[error("cannot read detail file {path}: {cause}")]
     Read {
         path: PathBuf,
-        source: std::io::Error,
+        cause: std::io::Error,
     },
-    #[error("cannot write detail file {path}: {source}")]
+    #[error("cannot write detail file {path}: {cause}")]
     Write {
         path: PathBuf,
-        source: std::io::Error,
+        cause: std::io::Error,
     },
     #[error("detail file {path}: {message}")]
     Parse { path: PathBuf, message: String },
@@ -202,9 +203,9 @@ impl DetailParams {
 
     /// Reads and validates a detail file.
     pub fn load(path: &Path) -> Result<Self, DetailError> {
-        let text = std::fs::read_to_string(path).map_err(|source| DetailError::Read {
+        let text = std::fs::read_to_string(path).map_err(|cause| DetailError::Read {
             path: path.to_path_buf(),
-            source,
+            cause,
         })?;
         let params: Self = serde_json::from_str(&text).map_err(|e| DetailError::Parse {
             path: path.to_path_buf(),
@@ -217,9 +218,9 @@ impl DetailParams {
     /// Writes the parameters as pretty JSON.
     pub fn save(&self, path: &Path) -> Result<(), DetailError> {
         let text = serde_json::to_string_pretty(self).expect("parameters serialize");
-        std::fs::write(path, text + "\n").map_err(|source| DetailError::Write {
+        std::fs::write(path, text + "\n").map_err(|cause| DetailError::Write {
             path: path.to_path_buf(),
-            source,
+            cause,
         })
     }
 
