@@ -602,12 +602,23 @@ impl Detail {
     /// The lattices of octaves `first..first + count` around the unit vector `u_ref`, for
     /// the GPU: integer anchor cells in f64, the small remainder and the matrix in f32.
     pub fn anchors(&self, u_ref: DVec3, count: usize) -> Vec<OctaveAnchorF32> {
+        self.anchors_in(u_ref, count, DMat3::IDENTITY)
+    }
+
+    /// As [`Detail::anchors`] for offsets Δu given in another frame (`world_from_frame`):
+    /// M·world_from_frame (the fragment's bump works in view space).
+    pub fn anchors_in(
+        &self,
+        u_ref: DVec3,
+        count: usize,
+        world_from_frame: DMat3,
+    ) -> Vec<OctaveAnchorF32> {
         let position = u_ref * self.radius_m;
         self.octaves
             .iter()
             .take(count)
             .map(|o| {
-                let m = o.rotation * (self.radius_m / o.cell_m);
+                let m = o.rotation * (self.radius_m / o.cell_m) * world_from_frame;
                 let x = o.rotation * position / o.cell_m;
                 let (cell, frac) = noise::split(x.to_array());
                 let row = |i: usize| [m.x_axis[i] as f32, m.y_axis[i] as f32, m.z_axis[i] as f32];

@@ -273,24 +273,36 @@ impl DetailFillParams {
         let c = detail.constants_f32();
         p.warp = [c.lever, c.t[0], c.t[1], c.height_roughness];
         p.warp2 = [c.c1r0[0], c.c1r0[1], c.c2[0], c.c2[1]];
-        let dp = detail.params();
-        p.sigma = [
-            dp.amplitude_min_m as f32,
-            (dp.roughness_gain * detail.relief_scale()) as f32,
-            dp.amplitude_max_m as f32,
-            0.0,
-        ];
+        p.sigma = sigma_params(detail, 0.0);
         let map = detail.roughness();
         p.counts = [octaves.full, octaves.partial, map.cols, map.rows];
-        for (k, a) in detail.amplitudes_f32().into_iter().enumerate() {
-            p.amplitudes[k / 4][k % 4] = a;
-        }
+        p.amplitudes = amplitude_table(detail);
         let u_ref = crate::geo::sphere::unit_vector(phi, theta);
         for (o, a) in p.octaves.iter_mut().zip(detail.anchors(u_ref, count)) {
             *o = DetailOctaveParams::from(&a);
         }
         p
     }
+}
+
+/// a_k, four to a vector.
+fn amplitude_table(detail: &Detail) -> [[f32; 4]; DETAIL_AMPLITUDE_VECS] {
+    let mut t = [[0.0; 4]; DETAIL_AMPLITUDE_VECS];
+    for (k, a) in detail.amplitudes_f32().into_iter().enumerate() {
+        t[k / 4][k % 4] = a;
+    }
+    t
+}
+
+/// σ = clamp(x + y·relief, 0, z) as the shaders evaluate it; `w` is the caller's.
+fn sigma_params(detail: &Detail, w: f32) -> [f32; 4] {
+    let p = detail.params();
+    [
+        p.amplitude_min_m as f32,
+        (p.roughness_gain * detail.relief_scale()) as f32,
+        p.amplitude_max_m as f32,
+        w,
+    ]
 }
 
 impl From<&OctaveAnchorF32> for DetailOctaveParams {
@@ -329,40 +341,13 @@ impl BumpUniforms {
         let w = view.camera.view_frame().world_from_view;
         let viewer_u = w * glam::DVec3::Z;
         let n = detail.octave_count();
-        for (k, (o, a)) in b
-            .octaves
-            .iter_mut()
-            .zip(detail.anchors(viewer_u, n))
-            .enumerate()
-        {
-            // N = M·W: lattice cells per unit of view-space Δu.
-            let m = detail.octaves()[k].rotation * (detail.radius_m() / detail.octaves()[k].cell_m);
-            let nm = m * w;
-            let row = |i: usize| {
-                [
-                    nm.x_axis[i] as f32,
-                    nm.y_axis[i] as f32,
-                    nm.z_axis[i] as f32,
-                    a.frac[i],
-                ]
-            };
-            *o = DetailOctaveParams {
-                m0: row(0),
-                m1: row(1),
-                m2: row(2),
-                cell: [a.cell[0], a.cell[1], a.cell[2], a.seed as i32],
-            };
+        // N = M·W: lattice cells per unit of view-space Δu.
+        for (o, a) in b.octaves.iter_mut().zip(detail.anchors_in(viewer_u, n, w)) {
+            *o = DetailOctaveParams::from(&a);
         }
-        for (k, a) in detail.amplitudes_f32().into_iter().enumerate() {
-            b.amplitudes[k / 4][k % 4] = a;
-        }
+        b.amplitudes = amplitude_table(detail);
+        b.sigma = sigma_params(detail, detail.radius_m() as f32);
         let p = detail.params();
-        b.sigma = [
-            p.amplitude_min_m as f32,
-            (p.roughness_gain * detail.relief_scale()) as f32,
-            p.amplitude_max_m as f32,
-            detail.radius_m() as f32,
-        ];
         // Octaves of cells at least two pixels: λ_px(d) = log_r(L_0·focal/(2d)) + 1.
         let focal_px = view.height_px as f64 / (2.0 * (0.5 * view.fov_y_rad).tan());
         let first = detail.octaves().first().map_or(1.0, |o| o.cell_m);
