@@ -6,9 +6,10 @@
 //! | --- | --- |
 //! | [`geo`] | f64 sphere math, camera, the map transform (3 forms) and visibility bounds |
 //! | [`dem`] | elevation rasters (EHdr/BIL, netCDF-3) and the tiled pyramid file |
-//! | [`terrain`] | height sources: the analytic test planet and the DEM pyramid |
 //! | [`stream`] | tile streaming: sources (mmap, fault injection), tokio streamer, LRU cache |
 //! | [`clipmap`] | ring mesh, level texture windows, level and sector selection |
+//! | [`procedural`] | detail below the data: multifractal value noise over a 3-D integer lattice, domain warping, the data's relief, the geometry rule λ(s) |
+//! | [`terrain`] | the terrain function: base heights (the analytic test planet or the DEM pyramid) plus the procedural detail |
 //! | [`plan`] | one frame planned in f64 (view, clipmap levels, fills, sectors, waiting), no GPU |
 //! | [`render`] | wgpu plumbing: the plan → f32 GPU data step and the Rust ↔ WGSL contract (`gpu_data`), context, terrain pass, compute fill, offscreen target |
 //! | [`scenes`] | the named views of DESIGN.md |

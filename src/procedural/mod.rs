@@ -41,8 +41,6 @@ use serde::{Deserialize, Serialize};
 pub use roughness::RoughnessMap;
 pub use warp::WarpParams;
 
-use crate::terrain::Terrain;
-
 /// Octaves at most (the GPU's per-job table); a floor that would need more is raised.
 pub const MAX_OCTAVES: usize = 32;
 /// Octaves a clipmap level can hold with a weight between 0 and 1 (one RGBA texel).
@@ -304,18 +302,6 @@ pub struct Detail {
 }
 
 impl Detail {
-    /// The detail over `terrain`: relief map from its bounds, L_0 from its resolution.
-    pub fn for_terrain(params: DetailParams, terrain: &Terrain) -> Self {
-        let cols = (360.0 / RoughnessMap::DEFAULT_CELL_DEG) as u32;
-        let roughness = RoughnessMap::of_terrain(terrain, cols);
-        Self::new(
-            params,
-            terrain.radius_m(),
-            terrain_spacing_m(terrain),
-            roughness,
-        )
-    }
-
     /// The detail below data of pixel spacing `data_spacing_m` with relief `roughness`.
     pub fn new(
         params: DetailParams,
@@ -715,21 +701,6 @@ pub fn detail_texel_f32(
     }
     out.full_m = sigma * full;
     out
-}
-
-/// Pixel spacing of the terrain's data at the equator, metres (the analytic planet: half its
-/// shortest wavelength).
-pub fn terrain_spacing_m(terrain: &Terrain) -> f64 {
-    match terrain.analytic() {
-        Some(p) => {
-            let omega = p.scales.iter().map(|s| s.omega).fold(1.0, f64::max);
-            std::f64::consts::PI * p.radius_m / omega
-        }
-        None => {
-            let d = terrain.dem().expect("a terrain is analytic or a DEM");
-            d.pyramid().grid(0).dlat_deg.to_radians() * d.radius_m()
-        }
-    }
 }
 
 fn unit(h: u32) -> f64 {

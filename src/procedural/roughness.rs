@@ -11,7 +11,6 @@ use std::f64::consts::{PI, TAU};
 use glam::DVec3;
 
 use crate::geo::sphere;
-use crate::terrain::Terrain;
 
 /// Relief per cell, rows north to south, columns from φ = 0 eastward.
 #[derive(Clone, Debug, PartialEq)]
@@ -30,8 +29,9 @@ impl RoughnessMap {
     /// Cell size of the default map: 0.5° (≈ 55 km): relief at the scale of a mountain range.
     pub const DEFAULT_CELL_DEG: f64 = 0.5;
 
-    /// Relief of `terrain` over `cols × rows` cells (`rows = cols / 2`).
-    pub fn of_terrain(terrain: &Terrain, cols: u32) -> Self {
+    /// Relief over `cols × rows` cells (`rows = cols / 2`) from `bounds(u, angle)`, the lowest
+    /// and highest terrain within `angle` of `u` (the pyramid's min/max planes for a DEM).
+    pub fn of_bounds(cols: u32, radius_m: f64, bounds: impl Fn(DVec3, f64) -> (f64, f64)) -> Self {
         let rows = (cols / 2).max(2);
         let dphi = TAU / cols as f64;
         let dtheta = PI / rows as f64;
@@ -42,11 +42,11 @@ impl RoughnessMap {
                 let phi = (c as f64 + 0.5) * dphi;
                 let u = sphere::unit_vector(phi, theta);
                 // A cap reaching the cell's corners at the equator (half a cell diagonal).
-                let (lo, hi) = terrain.height_bounds_near_m(u, 0.75 * dtheta);
+                let (lo, hi) = bounds(u, 0.75 * dtheta);
                 values[(r * cols + c) as usize] = (hi - lo).max(0.0) as f32;
             }
         }
-        Self::from_values(cols, rows, values, terrain.radius_m())
+        Self::from_values(cols, rows, values, radius_m)
     }
 
     /// A map of given values (rows north to south); the outermost rows are set to their mean.

@@ -13,7 +13,7 @@ pub use analytic::AnalyticPlanet;
 pub use dem::DemTerrain;
 
 use crate::geo::sphere;
-use crate::procedural::{Detail, DetailParams};
+use crate::procedural::{Detail, DetailParams, RoughnessMap};
 
 /// Where the terrain's base heights come from.
 #[derive(Clone, Debug)]
@@ -59,7 +59,19 @@ impl Terrain {
     /// base (a fraction of a second).
     pub fn with_detail(self, params: Option<DetailParams>) -> Self {
         let base_only: Terrain = self.base.into();
-        let detail = params.map(|p| Arc::new(Detail::for_terrain(p, &base_only)));
+        let detail = params.map(|p| {
+            let cols = (360.0 / RoughnessMap::DEFAULT_CELL_DEG) as u32;
+            let radius_m = base_only.radius_m();
+            let roughness = RoughnessMap::of_bounds(cols, radius_m, |u, angle| {
+                base_only.height_bounds_near_m(u, angle)
+            });
+            Arc::new(Detail::new(
+                p,
+                radius_m,
+                base_only.data_spacing_m(),
+                roughness,
+            ))
+        });
         Self {
             base: base_only.base,
             detail,
@@ -71,6 +83,18 @@ impl Terrain {
         Self {
             base: self.base,
             detail,
+        }
+    }
+
+    /// Pixel spacing of the base's data at the equator, metres (the analytic planet: half its
+    /// shortest wavelength): the detail starts below it.
+    pub fn data_spacing_m(&self) -> f64 {
+        match &self.base {
+            Base::Analytic(p) => {
+                let omega = p.scales.iter().map(|s| s.omega).fold(1.0, f64::max);
+                std::f64::consts::PI * p.radius_m / omega
+            }
+            Base::Dem(d) => d.pyramid().grid(0).dlat_deg.to_radians() * d.radius_m(),
         }
     }
 
