@@ -31,6 +31,20 @@ fn lattice_value(c: vec3<i32>, seed: u32) -> f32 {
     return f32(h.x >> 8u) * (1.0 / 8388608.0) - 1.0;
 }
 
+// The lattice values at the 8 corners of cell, x fastest: v000, v100, v010, v110, v001, …
+fn lattice_corners(cell: vec3<i32>, seed: u32) -> array<f32, 8> {
+    return array<f32, 8>(
+        lattice_value(cell, seed),
+        lattice_value(cell + vec3<i32>(1, 0, 0), seed),
+        lattice_value(cell + vec3<i32>(0, 1, 0), seed),
+        lattice_value(cell + vec3<i32>(1, 1, 0), seed),
+        lattice_value(cell + vec3<i32>(0, 0, 1), seed),
+        lattice_value(cell + vec3<i32>(1, 0, 1), seed),
+        lattice_value(cell + vec3<i32>(0, 1, 1), seed),
+        lattice_value(cell + vec3<i32>(1, 1, 1), seed),
+    );
+}
+
 fn fade(t: f32) -> f32 {
     return t * t * t * (t * (t * 6.0 - 15.0) + 10.0);
 }
@@ -38,14 +52,15 @@ fn fade(t: f32) -> f32 {
 // S at cell + f (f in [0, 1)³): quintic-faded trilinear interpolation of the lattice values.
 fn value_noise(cell: vec3<i32>, f: vec3<f32>, seed: u32) -> f32 {
     let w = vec3<f32>(fade(f.x), fade(f.y), fade(f.z));
-    let v000 = lattice_value(cell, seed);
-    let v100 = lattice_value(cell + vec3<i32>(1, 0, 0), seed);
-    let v010 = lattice_value(cell + vec3<i32>(0, 1, 0), seed);
-    let v110 = lattice_value(cell + vec3<i32>(1, 1, 0), seed);
-    let v001 = lattice_value(cell + vec3<i32>(0, 0, 1), seed);
-    let v101 = lattice_value(cell + vec3<i32>(1, 0, 1), seed);
-    let v011 = lattice_value(cell + vec3<i32>(0, 1, 1), seed);
-    let v111 = lattice_value(cell + vec3<i32>(1, 1, 1), seed);
+    let v = lattice_corners(cell, seed);
+    let v000 = v[0];
+    let v100 = v[1];
+    let v010 = v[2];
+    let v110 = v[3];
+    let v001 = v[4];
+    let v101 = v[5];
+    let v011 = v[6];
+    let v111 = v[7];
     let x00 = v000 + (v100 - v000) * w.x;
     let x10 = v010 + (v110 - v010) * w.x;
     let x01 = v001 + (v101 - v001) * w.x;
@@ -92,14 +107,15 @@ fn fade_slope(t: f32) -> f32 {
 fn value_noise_grad(cell: vec3<i32>, f: vec3<f32>, seed: u32) -> vec4<f32> {
     let w = vec3<f32>(fade(f.x), fade(f.y), fade(f.z));
     let dw = vec3<f32>(fade_slope(f.x), fade_slope(f.y), fade_slope(f.z));
-    let v000 = lattice_value(cell, seed);
-    let v100 = lattice_value(cell + vec3<i32>(1, 0, 0), seed);
-    let v010 = lattice_value(cell + vec3<i32>(0, 1, 0), seed);
-    let v110 = lattice_value(cell + vec3<i32>(1, 1, 0), seed);
-    let v001 = lattice_value(cell + vec3<i32>(0, 0, 1), seed);
-    let v101 = lattice_value(cell + vec3<i32>(1, 0, 1), seed);
-    let v011 = lattice_value(cell + vec3<i32>(0, 1, 1), seed);
-    let v111 = lattice_value(cell + vec3<i32>(1, 1, 1), seed);
+    let v = lattice_corners(cell, seed);
+    let v000 = v[0];
+    let v100 = v[1];
+    let v010 = v[2];
+    let v110 = v[3];
+    let v001 = v[4];
+    let v101 = v[5];
+    let v011 = v[6];
+    let v111 = v[7];
     let k1 = v100 - v000;
     let k2 = v010 - v000;
     let k3 = v001 - v000;
