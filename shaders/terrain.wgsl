@@ -3,9 +3,11 @@
 // Vertex: static ring vertex p̃ (view space) → map transform → height from the level texture
 // (manual bilinear, blended into the next coarser level near the level's outer edge) →
 // camera-relative position with no f32 cancellation (DESIGN.md: 1 − cos θ̃ precomputed in f64).
-// Fragment: normal from the height texture by finite differences on the sphere (pole-safe: the
-// offsets are view-space directions, never φ/θ derivatives), sun lighting, hypsometric colours,
-// optional level overlay.
+// Fragment: the level's normal texture (world frame, filled once per texel by
+// fill_normals.wgsl) turned into view space, the detail's bump octaves finer than the level
+// holds, sun lighting, hypsometric colours of the height stored beside the normal (the
+// texture's resolution, not the mesh's), optional level overlay.
+// No height or map transform is evaluated per fragment.
 //
 // Prepended at build time: constants generated from Rust (render::shader::shared_constants:
 // MAX_LEVELS, OVERLAY_LEVELS, TRANSFORM_*, …) and common/map_transform.wgsl.
@@ -26,8 +28,9 @@ struct FrameUniforms {
     overlay: u32,
     // altitude − eye_height_m in f64, rounded: the eye's height is eye_height_m + this.
     eye_height_lo_m: f32,
-    _pad1: u32,
-    _pad2: u32,
+    // The ring mesh's n (φ̃ steps) and m (rings per level).
+    mesh_steps: u32,
+    mesh_rings: u32,
     // λ(θ̃) = clamp(x − ln θ̃ · y, 0, z): the detail octaves geometry holds (0: no detail).
     detail_lambda: vec4<f32>,
 }
@@ -42,8 +45,19 @@ struct LevelUniforms {
     dtheta_rad: f32,
     // Index of the level's first partial octave (the whole ones are in its heights).
     detail_full: u32,
-    _pad1: f32,
-    _pad2: f32,
+    // One past its last partial octave: its normals hold every octave before this one.
+    detail_end: u32,
+    // Ring density k (every 2^k-th φ̃ step and ring) of the body, the outer and the inner ring,
+    // and how far the vertices density k + 1 drops have moved onto its surface (0..1).
+    density: u32,
+    outer_density: u32,
+    inner_density: u32,
+    morph: f32,
+    outer_morph: f32,
+    inner_morph: f32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
 }
 
 // Rust twin: clipmap::RingVertex, buffer layout render::gpu_data::RING_VERTEX_ATTRIBUTES.
@@ -54,6 +68,17 @@ struct RingVertex {
     @location(3) ring_t: f32,
     @location(4) level: u32,
     @location(5) seam_side: f32,
+}
+
+// The same vertices read by index (Rust twin: clipmap::RingVertex; vertex i of level l, ring j,
+// column c is l·((m+1)(n+2)+1) + j·(n+2) + c).
+struct MeshVertex {
+    p_tilde: vec3<f32>,
+    one_minus_cos: f32,
+    theta_tilde_rad: f32,
+    ring_t: f32,
+    level: u32,
+    seam_side: f32,
 }
 
 // Rust twin: render::gpu_data::BumpUniforms. The detail's octaves finer than geometry holds,
@@ -90,6 +115,10 @@ struct VertexOut {
 @group(0) @binding(3) var partials: texture_2d_array<f32>;
 @group(0) @binding(4) var<uniform> bump: BumpUniforms;
 @group(0) @binding(5) var<storage, read> relief: array<f32>;
+// World-frame unit normals per level texel (fill_normals.wgsl), bilinear and toroidal.
+@group(0) @binding(6) var normals: texture_2d_array<f32>;
+@group(0) @binding(7) var normal_sampler: sampler;
+@group(0) @binding(8) var<storage, read> mesh: array<MeshVertex>;
 
 fn wrap_texel(i: i32) -> i32 {
     let s = i32(frame.texture_size);
@@ -181,24 +210,105 @@ fn map_transform(p_tilde: vec3<f32>, seam_side: f32, level: u32, ring_t: f32) ->
     }
 }
 
+// A ring vertex placed on the terrain: map offset, coarse-level blend, height.
+struct Placed {
+    d: vec2<f32>,
+    blend: f32,
+    h: f32,
+}
+
+fn place(p_tilde: vec3<f32>, seam_side: f32, level: u32, ring_t: f32, theta_tilde: f32) -> Placed {
+    var out: Placed;
+    out.d = map_transform(p_tilde, seam_side, level, ring_t);
+    out.blend = coarse_blend_weight(level, ring_t);
+    out.h = terrain_height(level, out.d, out.blend, detail_lambda(theta_tilde));
+    return out;
+}
+
+// Index of the vertex of `level` on ring j at φ̃ step t (mod n), its first copy.
+fn mesh_index(level: u32, j: u32, t: u32) -> u32 {
+    let n = frame.mesh_steps;
+    let columns = n + 2u;
+    return level * ((frame.mesh_rings + 1u) * columns + 1u) + j * columns + t % n;
+}
+
 @vertex
-fn vs_main(v: RingVertex) -> VertexOut {
-    let d = map_transform(v.p_tilde, v.seam_side, v.level, v.ring_t);
-    let blend = coarse_blend_weight(v.level, v.ring_t);
-    let h = terrain_height(v.level, d, blend, detail_lambda(v.theta_tilde_rad));
+fn vs_main(v: RingVertex, @builtin(vertex_index) index: u32) -> VertexOut {
+    var at = place(v.p_tilde, v.seam_side, v.level, v.ring_t, v.theta_tilde_rad);
+    var p = v.p_tilde;
+    var one_minus_cos = v.one_minus_cos;
+
+    // Geomorphing (clipmap::density): a vertex the next coarser density drops moves, by the
+    // level's morph, to the midpoint of the two coarser vertices it lies between (along its
+    // ring, across rings, or on the coarse quad's diagonal), heights included, so that the
+    // switch to that density moves nothing. Edge rings morph along the ring only, with the
+    // density and morph both levels sharing them agree on.
+    let n = frame.mesh_steps;
+    let m = frame.mesh_rings;
+    let columns = n + 2u;
+    let per_level = (m + 1u) * columns + 1u;
+    let local = index - v.level * per_level;
+    let j = local / columns;
+    let column = local % columns;
+    let lu = levels[v.level];
+    var k = lu.density;
+    var morph = lu.morph;
+    let edge = j == 0u || j == m;
+    if j == 0u {
+        k = lu.outer_density;
+        morph = lu.outer_morph;
+    } else if j == m {
+        k = lu.inner_density;
+        morph = lu.inner_morph;
+    }
+    if morph > 0.0 && local + 1u < per_level {
+        // φ̃ step of this column (column n + 1 is the second copy of step n/2).
+        let t = select(column, n / 2u, column == n + 1u);
+        let s = 1u << k;
+        let odd_step = ((t / s) & 1u) == 1u;
+        let odd_ring = !edge && ((j / s) & 1u) == 1u;
+        if odd_step || odd_ring {
+            var ia: u32;
+            var ib: u32;
+            if odd_step && odd_ring {
+                // The coarse quad's diagonal: (j − s, t + s) to (j + s, t − s).
+                ia = mesh_index(v.level, j - s, t + s);
+                ib = mesh_index(v.level, j + s, t + n - s);
+            } else if odd_step {
+                ia = mesh_index(v.level, j, t + s);
+                ib = mesh_index(v.level, j, t + n - s);
+            } else {
+                ia = mesh_index(v.level, j - s, t);
+                ib = mesh_index(v.level, j + s, t);
+            }
+            let a = mesh[ia];
+            let b = mesh[ib];
+            // Neighbours on a seam meridian take this vertex's side of the cut (§4.4).
+            let side = select(v.seam_side, sign(v.p_tilde.y), v.p_tilde.y != 0.0);
+            let pa = place(a.p_tilde, side, v.level, a.ring_t, a.theta_tilde_rad);
+            let pb = place(b.p_tilde, side, v.level, b.ring_t, b.theta_tilde_rad);
+            at.d = mix(at.d, 0.5 * (pa.d + pb.d), morph);
+            at.blend = mix(at.blend, 0.5 * (pa.blend + pb.blend), morph);
+            at.h = mix(at.h, 0.5 * (pa.h + pb.h), morph);
+            p = mix(p, 0.5 * (a.p_tilde + b.p_tilde), morph);
+            one_minus_cos = mix(one_minus_cos, 0.5 * (a.one_minus_cos + b.one_minus_cos), morph);
+        }
+    }
+
+    let h = at.h;
     // Position relative to the eye in view space: the eye is at (0, 0, R + h_eye).
     // z = (h − h_eye) − (R + h)·(1 − cos θ̃) (DESIGN.md), with 1 − cos θ̃ from f64.
     let r = frame.radius_m + h;
     let rel = vec3<f32>(
-        r * v.p_tilde.x,
-        r * v.p_tilde.y,
-        ((h - frame.eye_height_m) - frame.eye_height_lo_m) - r * v.one_minus_cos,
+        r * p.x,
+        r * p.y,
+        ((h - frame.eye_height_m) - frame.eye_height_lo_m) - r * one_minus_cos,
     );
     var out: VertexOut;
     out.clip = frame.clip_from_view * vec4<f32>(rel, 1.0);
-    out.map_pos = d;
-    out.p_tilde = v.p_tilde;
-    out.coarse_blend = blend;
+    out.map_pos = at.d;
+    out.p_tilde = p;
+    out.coarse_blend = at.blend;
     out.level = v.level;
     out.rel = rel;
     return out;
@@ -223,16 +333,24 @@ fn relief_at_world(w: vec3<f32>) -> f32 {
 }
 
 // Gradient (view space, metres per metre) of the bump octaves at view direction u: the
-// weights each octave lacks in geometry (w_k(λ_px) − w_k(λ_geo)). The bump octaves continue
-// the lattices unwarped and at the base amplitude (no height-dependent roughness): shading
-// only, never measured.
-fn bump_gradient(u: vec3<f32>, lambda_geo: f32, footprint_dist: f32) -> vec3<f32> {
+// octaves of at least two pixels (weights w_k(λ_px)) that the level's normals lack. Those hold
+// every octave below `detail_end` at weight 1 (blended with the coarser level's near its
+// outer edge), which is right wherever geometry holds an octave: its cells are then ≥ 8 × the
+// distance/8 … far above two pixels. The bump octaves continue the lattices unwarped and at
+// the base amplitude (no height-dependent roughness): shading only, never measured.
+fn bump_gradient(u: vec3<f32>, level: u32, blend: f32, footprint_dist: f32) -> vec3<f32> {
     let c = bump.lambda_px;
     if c.z <= 0.0 {
         return vec3<f32>(0.0);
     }
     let lambda_px = clamp(c.x - log(max(footprint_dist, 1e-6)) * c.y, 0.0, c.z);
-    if lambda_px <= lambda_geo {
+    let end_fine = levels[level].detail_end;
+    var end_coarse = end_fine;
+    if blend > 0.0 {
+        end_coarse = levels[level - 1u].detail_end;
+    }
+    let k_start = min(end_fine, end_coarse);
+    if lambda_px <= f32(k_start) {
         return vec3<f32>(0.0);
     }
     // Δu from the viewer (0, 0, 1) without cancellation: 1 − z = |xy|²/(1 + z).
@@ -240,8 +358,9 @@ fn bump_gradient(u: vec3<f32>, lambda_geo: f32, footprint_dist: f32) -> vec3<f32
     let du = vec3<f32>(u.x, u.y, -xy2 / (1.0 + u.z));
     var g = vec3<f32>(0.0);
     let k_end = u32(min(ceil(lambda_px), c.z));
-    for (var k = u32(floor(lambda_geo)); k < k_end; k++) {
-        let wd = clamp(lambda_px - f32(k), 0.0, 1.0) - clamp(lambda_geo - f32(k), 0.0, 1.0);
+    for (var k = k_start; k < k_end; k++) {
+        let in_texture = select(0.0, 1.0 - blend, k < end_fine) + select(0.0, blend, k < end_coarse);
+        let wd = clamp(lambda_px - f32(k), 0.0, 1.0) - in_texture;
         if wd <= 0.0 {
             continue;
         }
@@ -262,9 +381,15 @@ fn bump_gradient(u: vec3<f32>, lambda_geo: f32, footprint_dist: f32) -> vec3<f32
     return sigma * g / bump.sigma.w;
 }
 
-fn height_at_direction(level: u32, u: vec3<f32>, coarse_blend: f32, lambda: f32) -> f32 {
-    let d = map_transform_stable(frame.transform, u, 0.0);
-    return terrain_height(level, d, coarse_blend, lambda);
+// The normal texture of `level` at map offset d from the viewer: the world-frame normal
+// (filtered: not quite unit length) and, in w, the height for the colour.
+fn level_normal(level: u32, d: vec2<f32>) -> vec4<f32> {
+    let g = levels[level];
+    let x = d.x * g.inv_dphi + g.grid_x_viewer;
+    let y = d.y * g.inv_dtheta + g.grid_y_viewer;
+    // Texel (i, j) holds grid point (i, j) mod S at its centre.
+    let uv = (vec2<f32>(x, y) + 0.5) / f32(frame.texture_size);
+    return textureSampleLevel(normals, normal_sampler, uv, i32(level), 0.0);
 }
 
 // Hypsometric tint: bathymetry blues, lowland greens, upland browns, rock, snow.
@@ -310,35 +435,24 @@ fn level_colour(level: u32) -> vec3<f32> {
 fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
     let level = in.level;
     let blend = clamp(in.coarse_blend, 0.0, 1.0);
-    let u = normalize(in.p_tilde);
-    let lambda = detail_lambda(atan2(length(u.xy), u.z));
-    let h = terrain_height(level, in.map_pos, blend, lambda);
-
-    // Normal: central differences along two tangents of the unit sphere at the fragment,
-    // one texel apart. n ∝ (R+h)·u − ∂h/∂e1·e1 − ∂h/∂e2·e2 for unit angular offsets.
-    var axis = vec3<f32>(0.0, 0.0, 1.0);
-    if abs(u.z) > 0.9 {
-        axis = vec3<f32>(1.0, 0.0, 0.0);
+    var nh = level_normal(level, in.map_pos);
+    if blend > 0.0 {
+        nh = mix(nh, level_normal(level - 1u, in.map_pos), blend);
     }
-    let e1 = normalize(cross(axis, u));
-    let e2 = cross(u, e1);
-    let eps = levels[level].dtheta_rad;
-    let h1p = height_at_direction(level, normalize(u + eps * e1), blend, lambda);
-    let h1m = height_at_direction(level, normalize(u - eps * e1), blend, lambda);
-    let h2p = height_at_direction(level, normalize(u + eps * e2), blend, lambda);
-    let h2m = height_at_direction(level, normalize(u - eps * e2), blend, lambda);
-    let g1 = (h1p - h1m) / (2.0 * eps);
-    let g2 = (h2p - h2m) / (2.0 * eps);
-    var n = normalize((frame.radius_m + h) * u - g1 * e1 - g2 * e2);
-    // The footprint along the view is stretched by 1/cos of the incidence (grazing views
-    // would alias the bump otherwise), up to 10×.
-    let dist = length(in.rel);
-    let cos_i = max(abs(dot(n, in.rel)) / max(dist, 1e-6), 0.1);
-    let gb = bump_gradient(u, lambda, dist / cos_i);
-    n = normalize(n - (gb - dot(gb, n) * n));
+    let nw = nh.xyz;
+    // World → view: n_view = Wᵀ·n_world, the rows of W = world_from_view being bump.world*.
+    var n = normalize(nw.x * bump.world0.xyz + nw.y * bump.world1.xyz + nw.z * bump.world2.xyz);
+    if bump.lambda_px.z > 0.0 {
+        // The footprint along the view is stretched by 1/cos of the incidence (grazing views
+        // would alias the bump otherwise), up to 10×.
+        let dist = length(in.rel);
+        let cos_i = max(abs(dot(n, in.rel)) / max(dist, 1e-6), 0.1);
+        let gb = bump_gradient(normalize(in.p_tilde), level, blend, dist / cos_i);
+        n = normalize(n - (gb - dot(gb, n) * n));
+    }
 
     let lambert = max(dot(n, frame.sun_view.xyz), 0.0);
-    var colour = hypsometric(h) * (0.28 + 0.72 * lambert);
+    var colour = hypsometric(nh.w) * (0.28 + 0.72 * lambert);
     if (frame.overlay & OVERLAY_LEVELS) != 0u {
         colour = mix(colour, level_colour(level) * (0.35 + 0.65 * lambert), 0.6);
     }

@@ -37,6 +37,9 @@ pub enum Change {
     Transform(TransformForm),
     /// The level overlay drawn (to show what an overlay costs).
     OverlayLevels,
+    /// The one error knob at this many hundredths of a pixel (`--error-budget`: vertex
+    /// spacing, texture size and mesh resolution together).
+    ErrorBudget(u32),
 }
 
 impl Change {
@@ -49,6 +52,14 @@ impl Change {
             Change::RingsPerLevel(m) => s.rings_per_level = m,
             Change::TextureSize(t) => s.texture_size = t,
             Change::Transform(form) => s.transform = form,
+            Change::ErrorBudget(centi) => {
+                if let Ok(b) = ClipmapSettings::for_error_budget(centi as f32 / 100.0) {
+                    s.phi_steps = b.phi_steps;
+                    s.rings_per_level = b.rings_per_level;
+                    s.texture_size = b.texture_size;
+                    s.target_spacing_px = b.target_spacing_px;
+                }
+            }
         }
         s
     }
@@ -66,6 +77,7 @@ impl Change {
             Change::TextureSize(_) => "texture size",
             Change::Transform(_) => "map transform",
             Change::OverlayLevels => "overlay on",
+            Change::ErrorBudget(_) => "error budget",
         }
     }
 }
@@ -80,6 +92,7 @@ impl std::fmt::Display for Change {
             Change::TextureSize(t) => write!(f, "texture={t}"),
             Change::Transform(form) => write!(f, "transform={}", form.name()),
             Change::OverlayLevels => write!(f, "overlay=levels"),
+            Change::ErrorBudget(centi) => write!(f, "budget={}", *centi as f32 / 100.0),
         }
     }
 }
@@ -92,9 +105,9 @@ pub struct Setting {
 }
 
 /// The settings the report runs: the defaults, then one parameter changed at a time (mesh
-/// resolution n and m, texture size, each map-transform form), and the level overlay on (to
-/// show what an overlay costs; every other row has overlays off). Changes that make invalid
-/// settings are left out.
+/// resolution n and m, texture size, each map-transform form), the level overlay on (to
+/// show what an overlay costs; every other row has overlays off), and the error budget swept
+/// over 0.5–8 px. Changes that make invalid settings are left out.
 pub fn settings_grid(base: &ClipmapSettings) -> Vec<Setting> {
     let mut changes = vec![Change::Default];
     changes.extend([256, 1024].map(Change::PhiSteps));
@@ -106,6 +119,8 @@ pub fn settings_grid(base: &ClipmapSettings) -> Vec<Setting> {
             .map(Change::Transform),
     );
     changes.push(Change::OverlayLevels);
+    // The knob's sweep: error against time as a curve (the default budget is the base row).
+    changes.extend([50, 100, 400, 800].map(Change::ErrorBudget));
     (changes.into_iter())
         .map(|change| Setting {
             change,

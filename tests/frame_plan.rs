@@ -165,7 +165,7 @@ fn culling_keeps_what_the_camera_sees_and_counts_the_rest() {
         let (view, mut clipmap) = plan(&terrain, &settings, &camera, &held);
         fill_all(&mut held, &clipmap);
         clipmap.limit_to_held(&held);
-        clipmap.cull(&view, &mesh, &bounds, &terrain, false);
+        clipmap.cull(&view, &settings, &mesh, &bounds, &terrain, false);
         let levels = clipmap.selection.drawn_levels().len() as u32;
         let d = &clipmap.draw;
         // Every sector of every drawn level, and the finest level's cap, is drawn or culled.
@@ -178,7 +178,7 @@ fn culling_keeps_what_the_camera_sees_and_counts_the_rest() {
         assert_eq!(d.sectors_culled > 0, expect_culled, "{name}: {d:?}");
         // Without the frustum nothing is culled and more is drawn.
         let mut all = clipmap.clone();
-        all.cull(&view, &mesh, &bounds, &terrain, true);
+        all.cull(&view, &settings, &mesh, &bounds, &terrain, true);
         assert_eq!(all.draw.sectors_culled, 0);
         assert!(all.draw.triangles >= d.triangles);
     }

@@ -271,7 +271,11 @@ fn contract(file: &str) -> PassContract {
 #[test]
 fn every_assembled_module_keeps_the_contract() {
     let contracts = pass_contracts();
-    assert_eq!(contracts.len(), 3, "terrain, analytic fill, DEM fill");
+    assert_eq!(
+        contracts.len(),
+        4,
+        "terrain, analytic fill, DEM fill, normals"
+    );
     for c in &contracts {
         let problems = check(c);
         assert!(problems.is_empty(), "{}", problems.join("\n"));

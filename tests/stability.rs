@@ -22,6 +22,7 @@ use std::path::PathBuf;
 use std::sync::OnceLock;
 
 use glam::{DMat3, DMat4, DVec2, DVec3, Vec3, Vec4};
+use globe::clipmap::density::{Density, DensityPlan};
 use globe::clipmap::selection::{DrawList, Frustum, LevelSelection, LevelStatus, SectorBounds};
 use globe::clipmap::settings::level_outer_theta_rad;
 use globe::clipmap::{ClipmapSettings, RingMesh};
@@ -37,6 +38,7 @@ use globe::geo::sphere::{
     wrap_angle_rad,
 };
 use globe::geo::{EARTH_RADIUS_M, theta_tilde_max, theta_tilde_min};
+use globe::plan::clipmap::DensityMap;
 use globe::render::terrain::DEPTH_FORMAT;
 use globe::render::{GpuContext, TerrainRenderer};
 use globe::terrain::{DemTerrain, Terrain};
@@ -454,7 +456,17 @@ fn every_camera_gives_finite_frames_transforms_bounds_and_selection() {
                     16.0 / 9.0,
                     near_m,
                 );
-                let list = DrawList::build(mesh, bounds, &sel, Some(&frustum), |_| {
+                // Mixed densities: every drawn level at a different one, edges shared.
+                let mut densities = DensityPlan::full(settings.levels);
+                let body: Vec<Density> = sel
+                    .drawn_levels()
+                    .map(|l| Density {
+                        k: (l * 7 + (c.altitude_m.to_bits() as u32 & 7)) % (mesh.max_density + 1),
+                        morph: 0.0,
+                    })
+                    .collect();
+                densities.set_drawn(&sel, &body);
+                let list = DrawList::build(mesh, bounds, &sel, &densities, Some(&frustum), |_| {
                     (
                         EARTH_RADIUS_M + EARTH_TERRAIN_MIN_M,
                         EARTH_RADIUS_M + EARTH_TERRAIN_MAX_M,
@@ -1639,6 +1651,15 @@ fn renders_of_random_cameras_are_finite_and_cover_what_geometry_predicts() {
 /// Looking down (pitch −90° … −5°, no roll) from anywhere up to 100 km, where the bottom row of
 /// the image must be ground: no column has sky below its first terrain pixel (a crack or a
 /// NaN vertex would leave one).
+/// Even levels at full density, odd ones at the coarsest, all half-way through a morph.
+fn alternating_densities(level: u32, _: Density, max_k: u32) -> Density {
+    let k = if level.is_multiple_of(2) { 0 } else { max_k };
+    Density {
+        k,
+        morph: if k < max_k { 0.5 } else { 0.0 },
+    }
+}
+
 #[test]
 fn renders_looking_down_have_no_sky_below_terrain() {
     let Some((ctx, _guard)) = common::gpu() else {
@@ -1673,6 +1694,10 @@ fn renders_looking_down_have_no_sky_below_terrain() {
             altitude_m: ground + v.above_m(),
             ..v.camera
         };
+        // Every other frame with mixed ring densities: neighbouring levels three densities
+        // apart, half-way through a morph, so every seam is a stitched one.
+        let (frames, _) = counts.get();
+        r.density_map = (frames % 2 == 1).then_some(DensityMap(alternating_densities));
         let frame = render_float(ctx, &mut r, &camera);
         prop_assert!(frame.depth.iter().all(|d| d.is_finite()));
         prop_assert!(frame.rgba.iter().all(|c| c.iter().all(|v| v.is_finite())));

@@ -7,6 +7,7 @@ use std::time::Instant;
 use anyhow::{Context, bail};
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use globe::clipmap::selection::LevelStatus;
+use globe::clipmap::settings::DEFAULT_ERROR_BUDGET_PX;
 use globe::clipmap::{ClipmapSettings, TransformForm};
 use globe::procedural::DetailSpec;
 use globe::progress::Progress;
@@ -90,18 +91,23 @@ enum Overlay {
 /// Clipmap settings; the defaults are explained in README.md.
 #[derive(Args, Clone, Debug)]
 struct MeshArgs {
-    /// n: φ̃ steps around each ring (a multiple of 2 × sectors).
-    #[arg(long = "phi-steps", value_name = "N", default_value_t = ClipmapSettings::default().phi_steps)]
-    phi_steps: u32,
-    /// m: rings per level.
-    #[arg(long = "rings", value_name = "M", default_value_t = ClipmapSettings::default().rings_per_level)]
-    rings_per_level: u32,
+    /// The one error knob: target max screen-space error ρ in pixels at the frame's
+    /// resolution. The vertex spacing, the texture size and (below 1 px) the mesh resolution
+    /// follow from it (README "One error knob"); the flags below override single settings.
+    #[arg(long = "error-budget", value_name = "PX", default_value_t = DEFAULT_ERROR_BUDGET_PX)]
+    error_budget_px: f32,
+    /// n: φ̃ steps around each ring (a multiple of 2 × sectors) [default: from --error-budget, 512].
+    #[arg(long = "phi-steps", value_name = "N")]
+    phi_steps: Option<u32>,
+    /// m: rings per level [default: from --error-budget, 32].
+    #[arg(long = "rings", value_name = "M")]
+    rings_per_level: Option<u32>,
     /// Number of levels in the mesh (level i spans θ̃ ∈ (2^-(i+1)π, 2^-iπ]).
     #[arg(long, default_value_t = ClipmapSettings::default().levels)]
     levels: u32,
-    /// Side of each level texture in texels (a power of two).
-    #[arg(long = "texture-size", value_name = "TEXELS", default_value_t = ClipmapSettings::default().texture_size)]
-    texture_size: u32,
+    /// Side of each level texture in texels (a power of two) [default: from --error-budget, 512].
+    #[arg(long = "texture-size", value_name = "TEXELS")]
+    texture_size: Option<u32>,
     /// φ̃ sectors per level, culled against the view frustum.
     #[arg(long, default_value_t = ClipmapSettings::default().sectors)]
     sectors: u32,
@@ -112,19 +118,27 @@ struct MeshArgs {
     /// First level using the approximation with --transform approximate.
     #[arg(long = "approx-start-level", value_name = "LEVEL", default_value_t = ClipmapSettings::default().approx_start_level)]
     approx_start_level: u32,
+    /// Target on-screen spacing of the mesh's vertices in pixels: each level is drawn at the
+    /// coarsest ring density (n/2^k, m/2^k, k ≤ 3) that keeps its vertices this close; 0 draws
+    /// every level at full density [default: from --error-budget, 5 × the budget].
+    #[arg(long = "vertex-spacing", value_name = "PX")]
+    target_spacing_px: Option<f32>,
 }
 
 impl MeshArgs {
     fn settings(&self) -> anyhow::Result<ClipmapSettings> {
+        let budget = ClipmapSettings::for_error_budget(self.error_budget_px)
+            .context("invalid --error-budget")?;
         let settings = ClipmapSettings {
-            phi_steps: self.phi_steps,
-            rings_per_level: self.rings_per_level,
+            phi_steps: self.phi_steps.unwrap_or(budget.phi_steps),
+            rings_per_level: self.rings_per_level.unwrap_or(budget.rings_per_level),
             levels: self.levels,
-            texture_size: self.texture_size,
+            texture_size: self.texture_size.unwrap_or(budget.texture_size),
             sectors: self.sectors,
             transform: self.transform,
             approx_start_level: self.approx_start_level,
-            ..ClipmapSettings::default()
+            target_spacing_px: self.target_spacing_px.unwrap_or(budget.target_spacing_px),
+            ..budget
         };
         settings.validate().context("invalid mesh settings")?;
         Ok(settings)

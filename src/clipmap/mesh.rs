@@ -41,18 +41,57 @@ pub struct RingVertex {
     pub seam_side: f32,
 }
 
-/// The whole static mesh plus the index range of every (level, sector) and cap.
+/// Index ranges of one level at one density, per φ̃ sector.
+#[derive(Debug, Default)]
+pub struct LevelRanges {
+    /// The quad rows between the level's two edge rows (all rows when it has a single one).
+    pub body: Vec<Range<u32>>,
+    /// `outer[kb − k]`: the outermost row, its outer ring (shared with the next coarser level)
+    /// at density `kb` ≥ k, fanned onto the row's inner ring at density k.
+    pub outer: Vec<Vec<Range<u32>>>,
+    /// `inner[kb − k]`: the innermost row, its inner ring (shared with the next finer level)
+    /// at density `kb` ≥ k.
+    pub inner: Vec<Vec<Range<u32>>>,
+    /// The fill cap (a fan from the nadir to the inner ring at density k).
+    pub cap: Vec<Range<u32>>,
+}
+
+/// The whole static mesh: one full-density vertex grid per level, and index ranges for every
+/// level, density and sector.
+///
+/// Density k draws every 2^k-th φ̃ step and every 2^k-th ring of the same vertices (issue 14:
+/// triangles by projected size). Where two levels of different densities meet, the shared
+/// ring is drawn at the coarser of the two by both (the finer level's edge row fans onto it),
+/// so the seam has neither cracks nor T-junctions; the vertex shader morphs the vertices a
+/// coarser density drops onto the coarser surface before the switch (no popping).
 #[derive(Debug)]
 pub struct RingMesh {
     pub vertices: Vec<RingVertex>,
     pub indices: Vec<u32>,
-    /// `bands[level][sector]`: indices of the ring band of that sector.
-    pub bands: Vec<Vec<Range<u32>>>,
-    /// `caps[level][sector]`: indices of the fill cap inside level `level`.
-    pub caps: Vec<Vec<Range<u32>>>,
+    /// `levels[level][k]`: the index ranges of that level at density k.
+    pub levels: Vec<Vec<LevelRanges>>,
     pub phi_steps: u32,
     pub rings_per_level: u32,
     pub sectors: u32,
+    /// Densities 0..=max_density exist.
+    pub max_density: u32,
+}
+
+/// The coarsest density (at most 3: n/8, m/8) whose rows and φ̃ steps still divide evenly:
+/// m/2^k ≥ 2 rings (distinct edge rows), n/2^k a multiple of 2 × sectors.
+pub fn max_density(settings: &ClipmapSettings) -> u32 {
+    let (n, m) = (settings.phi_steps, settings.rings_per_level);
+    let mut k = 0;
+    while k < 3 {
+        let s = 2u32 << k;
+        let rings_ok = m.is_multiple_of(s) && m / s >= 2;
+        let steps_ok = n.is_multiple_of(s * 2 * settings.sectors);
+        if !(rings_ok && steps_ok) {
+            break;
+        }
+        k += 1;
+    }
+    k
 }
 
 impl RingMesh {
@@ -61,14 +100,14 @@ impl RingMesh {
         let n = settings.phi_steps;
         let m = settings.rings_per_level;
         let sectors = settings.sectors;
-        let per_sector = n / sectors;
         let half = n / 2;
         let columns = n + 2; // k = 0..=n plus the duplicate of k = n/2
         let per_level = (m + 1) * columns + 1;
         let total_vertices = settings.levels as usize * per_level as usize;
+        let max_k = max_density(settings);
         let mut vertices = Vec::with_capacity(total_vertices);
         let mut indices = Vec::new();
-        let mut bands = Vec::with_capacity(settings.levels as usize);
+        let mut levels = Vec::with_capacity(settings.levels as usize);
 
         for level in 0..settings.levels {
             let base = vertices.len() as u32;
@@ -94,57 +133,113 @@ impl RingMesh {
                 ring_t: 1.0,
                 ..Default::default()
             });
-
-            // Column index of φ̃ step k as seen by the triangles of the sector holding
-            // [k0, k0+1]: the π meridian's left copy closes the east half, its right copy opens
-            // the west half.
-            let column =
-                |k: u32, k0: u32| -> u32 { if k == half && k0 >= half { n + 1 } else { k } };
-            let vid = |j: u32, col: u32| base + j * columns + col;
-
-            let mut level_bands = Vec::with_capacity(sectors as usize);
-            for s in 0..sectors {
-                let start = indices.len() as u32;
-                for j in 0..m {
-                    for k0 in s * per_sector..(s + 1) * per_sector {
-                        let (c0, c1) = (column(k0, k0), column(k0 + 1, k0));
-                        let (a, b) = (vid(j, c0), vid(j, c1));
-                        let (c, d) = (vid(j + 1, c0), vid(j + 1, c1));
-                        // Counter-clockwise seen from outside the sphere.
-                        indices.extend_from_slice(&[a, b, c, b, d, c]);
-                    }
-                }
-                level_bands.push(start..indices.len() as u32);
-            }
-            bands.push(level_bands);
-        }
-
-        let mut caps = Vec::with_capacity(settings.levels as usize);
-        for level in 0..settings.levels {
-            let base = level * per_level;
             let centre = base + per_level - 1;
-            let mut level_caps = Vec::with_capacity(sectors as usize);
-            for s in 0..sectors {
-                let start = indices.len() as u32;
-                for k0 in s * per_sector..(s + 1) * per_sector {
-                    let c0 = if k0 == half { n + 1 } else { k0 };
-                    let c1 = if k0 + 1 == half { half } else { k0 + 1 };
-                    let rim = |col: u32| base + m * columns + col;
-                    indices.extend_from_slice(&[centre, rim(c0), rim(c1)]);
+
+            // Column of φ̃ step t as seen by triangles of the coarse segment starting at t0:
+            // the π meridian's left copy closes the east half, its right copy opens the west.
+            let column =
+                |t: u32, t0: u32| -> u32 { if t == half && t0 >= half { n + 1 } else { t } };
+            let vid = |j: u32, col: u32| base + j * columns + col;
+            // Triangles of one quad row of one sector: its outer ring j_out at density a,
+            // its inner ring j_in at density b. The coarser ring's segments fan onto the
+            // finer ring's vertices (a plain quad strip when a == b).
+            let row =
+                |indices: &mut Vec<u32>, sector: u32, j_out: u32, a: u32, j_in: u32, b: u32| {
+                    let outer_coarse = a >= b;
+                    let (coarse, fine) = if outer_coarse { (a, b) } else { (b, a) };
+                    let (big, small) = (1u32 << coarse, 1u32 << fine);
+                    let r = big / small;
+                    let (t_start, t_end) = (sector * n / sectors, (sector + 1) * n / sectors);
+                    let mut c0 = t_start;
+                    while c0 < t_end {
+                        let c1 = c0 + big;
+                        let f = |i: u32| column(c0 + i * small, c0);
+                        if outer_coarse {
+                            let (b0, b1) = (vid(j_out, column(c0, c0)), vid(j_out, column(c1, c0)));
+                            let fi = |i: u32| vid(j_in, f(i));
+                            for i in 0..r / 2 {
+                                indices.extend_from_slice(&[b0, fi(i + 1), fi(i)]);
+                            }
+                            indices.extend_from_slice(&[b0, b1, fi(r / 2)]);
+                            for i in r / 2..r {
+                                indices.extend_from_slice(&[b1, fi(i + 1), fi(i)]);
+                            }
+                        } else {
+                            let (b0, b1) = (vid(j_in, column(c0, c0)), vid(j_in, column(c1, c0)));
+                            let fi = |i: u32| vid(j_out, f(i));
+                            for i in 0..r / 2 {
+                                indices.extend_from_slice(&[fi(i), fi(i + 1), b0]);
+                            }
+                            indices.extend_from_slice(&[fi(r / 2), b1, b0]);
+                            for i in r / 2..r {
+                                indices.extend_from_slice(&[fi(i), fi(i + 1), b1]);
+                            }
+                        }
+                        c0 = c1;
+                    }
+                };
+
+            let mut per_density = Vec::with_capacity(max_k as usize + 1);
+            for k in 0..=max_k {
+                let s = 1u32 << k;
+                let rows = m / s;
+                let mut ranges = LevelRanges::default();
+                // Rows 1..rows−1 (all of them when a level has a single row: then only
+                // density 0 exists and every neighbour shares it).
+                let body_rows = if rows >= 2 { 1..rows - 1 } else { 0..rows };
+                for sector in 0..sectors {
+                    let start = indices.len() as u32;
+                    for r in body_rows.clone() {
+                        row(&mut indices, sector, r * s, k, (r + 1) * s, k);
+                    }
+                    ranges.body.push(start..indices.len() as u32);
                 }
-                level_caps.push(start..indices.len() as u32);
+                for kb in k..=max_k {
+                    let mut outer = Vec::with_capacity(sectors as usize);
+                    let mut inner = Vec::with_capacity(sectors as usize);
+                    for sector in 0..sectors {
+                        let start = indices.len() as u32;
+                        if rows >= 2 {
+                            row(&mut indices, sector, 0, kb, s, k);
+                        }
+                        outer.push(start..indices.len() as u32);
+                    }
+                    for sector in 0..sectors {
+                        let start = indices.len() as u32;
+                        if rows >= 2 {
+                            row(&mut indices, sector, m - s, k, m, kb);
+                        }
+                        inner.push(start..indices.len() as u32);
+                    }
+                    ranges.outer.push(outer);
+                    ranges.inner.push(inner);
+                }
+                for sector in 0..sectors {
+                    let start = indices.len() as u32;
+                    let (t_start, t_end) = (sector * n / sectors, (sector + 1) * n / sectors);
+                    let mut t0 = t_start;
+                    while t0 < t_end {
+                        let t1 = t0 + s;
+                        let c0 = if t0 == half { n + 1 } else { t0 };
+                        let c1 = if t1 == half { half } else { t1 };
+                        indices.extend_from_slice(&[centre, vid(m, c0), vid(m, c1)]);
+                        t0 = t1;
+                    }
+                    ranges.cap.push(start..indices.len() as u32);
+                }
+                per_density.push(ranges);
             }
-            caps.push(level_caps);
+            levels.push(per_density);
         }
 
         Self {
             vertices,
             indices,
-            bands,
-            caps,
+            levels,
             phi_steps: n,
             rings_per_level: m,
             sectors,
+            max_density: max_k,
         }
     }
 
@@ -152,6 +247,43 @@ impl RingMesh {
     pub fn sector_phi_range_rad(&self, sector: u32) -> (f64, f64) {
         let w = std::f64::consts::TAU / self.sectors as f64;
         (sector as f64 * w, (sector + 1) as f64 * w)
+    }
+
+    /// Vertices of one level (the full-density grid, its nadir last).
+    pub fn vertices_per_level(&self) -> u32 {
+        (self.rings_per_level + 1) * (self.phi_steps + 2) + 1
+    }
+
+    /// Triangles of every sector of the drawn levels of `selection` at `densities`, with the
+    /// finest level's cap: what a frame draws when nothing is culled.
+    pub fn drawn_triangles(
+        &self,
+        densities: &super::density::DensityPlan,
+        selection: &super::selection::LevelSelection,
+    ) -> u64 {
+        let mut total = 0;
+        for level in selection.drawn_levels() {
+            let d = densities.levels[level as usize];
+            total += self.triangles(level, d.body.k, d.outer.k, d.inner.k);
+        }
+        let f = selection.finest as usize;
+        let k = densities.levels[f].body.k as usize;
+        total
+            + self.levels[f][k]
+                .cap
+                .iter()
+                .map(|r| (r.end - r.start) as u64 / 3)
+                .sum::<u64>()
+    }
+
+    /// Triangles of one whole level at density k whose edge rings are drawn at `outer` and
+    /// `inner` (≥ k), without its cap.
+    pub fn triangles(&self, level: u32, k: u32, outer: u32, inner: u32) -> u64 {
+        let r = &self.levels[level as usize][k as usize];
+        let count = |v: &[Range<u32>]| v.iter().map(|r| (r.end - r.start) as u64 / 3).sum::<u64>();
+        count(&r.body)
+            + count(&r.outer[(outer - k) as usize])
+            + count(&r.inner[(inner - k) as usize])
     }
 }
 
@@ -198,14 +330,19 @@ mod tests {
         }
     }
 
+    /// Density 0 with density-0 neighbours is the paper's mesh: 2·n·m triangles per level and
+    /// an n-triangle cap; every index is a vertex.
     #[test]
     fn index_counts_match_formula() {
         let s = small();
         let mesh = RingMesh::build(&s);
-        for level in 0..s.levels as usize {
-            let band: u32 = mesh.bands[level].iter().map(|r| r.end - r.start).sum();
-            assert_eq!(band as u64, 3 * s.triangles_per_level());
-            let cap: u32 = mesh.caps[level].iter().map(|r| r.end - r.start).sum();
+        for level in 0..s.levels {
+            assert_eq!(mesh.triangles(level, 0, 0, 0), s.triangles_per_level());
+            let cap: u32 = mesh.levels[level as usize][0]
+                .cap
+                .iter()
+                .map(|r| r.end - r.start)
+                .sum();
             assert_eq!(cap as u64, 3 * s.triangles_per_cap());
         }
         assert!(
@@ -213,6 +350,151 @@ mod tests {
                 .iter()
                 .all(|&i| (i as usize) < mesh.vertices.len())
         );
+    }
+
+    fn dense() -> ClipmapSettings {
+        ClipmapSettings {
+            phi_steps: 128,
+            rings_per_level: 16,
+            levels: 4,
+            sectors: 4,
+            ..Default::default()
+        }
+    }
+
+    type Key = [u32; 4];
+
+    /// A vertex's position key (seam copies share it).
+    fn key(v: &RingVertex) -> Key {
+        [
+            v.p_tilde[0].to_bits(),
+            v.p_tilde[1].to_bits(),
+            v.p_tilde[2].to_bits(),
+            v.level,
+        ]
+    }
+
+    /// Undirected edges by position of a set of index ranges, with their triangle counts.
+    fn edges(
+        mesh: &RingMesh,
+        ranges: &[&Range<u32>],
+    ) -> std::collections::HashMap<(Key, Key), u32> {
+        let mut e = std::collections::HashMap::new();
+        for r in ranges {
+            for tri in mesh.indices[r.start as usize..r.end as usize].chunks(3) {
+                let k: Vec<Key> = tri
+                    .iter()
+                    .map(|&i| key(&mesh.vertices[i as usize]))
+                    .collect();
+                assert!(
+                    k[0] != k[1] && k[1] != k[2] && k[0] != k[2],
+                    "degenerate triangle"
+                );
+                for (a, b) in [(k[0], k[1]), (k[1], k[2]), (k[2], k[0])] {
+                    *e.entry(if a < b { (a, b) } else { (b, a) }).or_insert(0) += 1;
+                }
+            }
+        }
+        e
+    }
+
+    /// Every density with every pair of edge densities is a closed band: interior edges
+    /// belong to exactly two triangles (no T-junction, no hole), the edge rings to one, and
+    /// the outer and inner rings are cut into exactly n/2^kb segments.
+    #[test]
+    fn every_density_combination_is_watertight() {
+        let s = dense();
+        let mesh = RingMesh::build(&s);
+        assert_eq!(mesh.max_density, 3);
+        let n = s.phi_steps;
+        let m = s.rings_per_level;
+        let level = 2;
+        let ring_of = |k: &Key| {
+            let v = mesh.vertices.iter().find(|v| key(v) == *k).unwrap();
+            (v.ring_t * m as f32).round() as u32
+        };
+        for k in 0..=mesh.max_density {
+            let lr = &mesh.levels[level][k as usize];
+            for ko in k..=mesh.max_density {
+                for ki in k..=mesh.max_density {
+                    let mut ranges: Vec<&Range<u32>> = lr.body.iter().collect();
+                    ranges.extend(lr.outer[(ko - k) as usize].iter());
+                    ranges.extend(lr.inner[(ki - k) as usize].iter());
+                    let e = edges(&mesh, &ranges);
+                    let (mut outer, mut inner) = (0, 0);
+                    for ((a, b), count) in &e {
+                        let (ra, rb) = (ring_of(a), ring_of(b));
+                        if ra == 0 && rb == 0 {
+                            assert_eq!(*count, 1);
+                            outer += 1;
+                        } else if ra == m && rb == m {
+                            assert_eq!(*count, 1);
+                            inner += 1;
+                        } else {
+                            assert_eq!(*count, 2, "k {k} outer {ko} inner {ki}: open edge");
+                        }
+                    }
+                    assert_eq!(outer, n >> ko, "k {k}: outer ring segments");
+                    assert_eq!(inner, n >> ki, "k {k}: inner ring segments");
+                    assert_eq!(
+                        mesh.triangles(level as u32, k, ko, ki),
+                        ranges
+                            .iter()
+                            .map(|r| ((r.end - r.start) / 3) as u64)
+                            .sum::<u64>()
+                    );
+                }
+            }
+            // The cap closes the inner ring at the level's own density.
+            let e = edges(&mesh, &lr.cap.iter().collect::<Vec<_>>());
+            let nadir = |k: &Key| k[..3] == [0.0f32.to_bits(), 0.0f32.to_bits(), 1.0f32.to_bits()];
+            let rim = e
+                .keys()
+                .filter(|(a, b)| !nadir(a) && !nadir(b) && ring_of(a) == m && ring_of(b) == m)
+                .count();
+            assert_eq!(rim, (n >> k) as usize);
+        }
+    }
+
+    /// Where level l (outer ring) meets level l−1 (inner ring), both draw the shared ring at
+    /// the coarser density: the same segments, position for position.
+    #[test]
+    fn shared_rings_match_across_levels() {
+        let s = dense();
+        let mesh = RingMesh::build(&s);
+        let m = s.rings_per_level;
+        let ring_edges = |level: u32, ranges: &[Range<u32>], ring: u32| {
+            let e = edges(&mesh, &ranges.iter().collect::<Vec<_>>());
+            let mut out: Vec<[[u32; 3]; 2]> = e
+                .keys()
+                .filter(|(a, b)| {
+                    let on = |k: &Key| {
+                        mesh.vertices.iter().any(|v| {
+                            key(v) == *k
+                                && v.level == level
+                                && (v.ring_t * m as f32).round() as u32 == ring
+                        })
+                    };
+                    on(a) && on(b)
+                })
+                .map(|(a, b)| {
+                    let mut p = [[a[0], a[1], a[2]], [b[0], b[1], b[2]]];
+                    p.sort();
+                    p
+                })
+                .collect();
+            out.sort();
+            out
+        };
+        for (k_fine, k_coarse) in [(0, 2), (3, 1), (1, 1)] {
+            let kb = k_fine.max(k_coarse);
+            let fine = &mesh.levels[2][k_fine as usize].outer[(kb - k_fine) as usize];
+            let coarse = &mesh.levels[1][k_coarse as usize].inner[(kb - k_coarse) as usize];
+            let a = ring_edges(2, fine, 0);
+            let b = ring_edges(1, coarse, m);
+            assert_eq!(a.len(), (s.phi_steps >> kb) as usize);
+            assert_eq!(a, b, "fine {k_fine} coarse {k_coarse}");
+        }
     }
 
     /// Level boundaries have no T-junctions: the outer ring of level i and the inner ring of

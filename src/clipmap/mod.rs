@@ -1,6 +1,7 @@
 //! The spherical geometry clipmap (spherical-clipmaps.md): static ring mesh in view space,
 //! per-level map-space texture windows with toroidal updates, and the choice of what to draw.
 
+pub mod density;
 pub mod levels;
 pub mod mesh;
 pub mod selection;

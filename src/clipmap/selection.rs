@@ -9,6 +9,7 @@ use std::ops::Range;
 
 use glam::{DMat3, DVec3};
 
+use super::density::DensityPlan;
 use super::mesh::RingMesh;
 use super::settings::level_outer_theta_rad;
 
@@ -164,7 +165,7 @@ pub struct SectorBounds {
 
 impl SectorBounds {
     pub fn new(mesh: &RingMesh) -> Self {
-        let levels = mesh.bands.len() as u32;
+        let levels = mesh.levels.len() as u32;
         let mut bands = Vec::new();
         let mut caps = Vec::new();
         for level in 0..levels {
@@ -286,16 +287,18 @@ impl DrawList {
         mesh: &RingMesh,
         bounds: &SectorBounds,
         selection: &LevelSelection,
+        densities: &DensityPlan,
         frustum: Option<&Frustum>,
         radius_range_m: impl Fn(u32) -> (f64, f64),
     ) -> Self {
         let mut list = DrawList::default();
-        let push = |list: &mut DrawList, range: &Range<u32>, sphere: &Sphere| {
+        // `count`: the part that stands for its sector in the drawn/culled counts.
+        let push = |list: &mut DrawList, range: &Range<u32>, sphere: &Sphere, count: bool| {
             if frustum.is_some_and(|f| !f.intersects(sphere)) {
-                list.sectors_culled += 1;
+                list.sectors_culled += count as u32;
                 return;
             }
-            list.sectors_drawn += 1;
+            list.sectors_drawn += count as u32;
             list.triangles += ((range.end - range.start) / 3) as u64;
             match list.ranges.last_mut() {
                 Some(last) if last.end == range.start => last.end = range.end,
@@ -304,17 +307,27 @@ impl DrawList {
         };
         for level in selection.drawn_levels() {
             let (lo, hi) = radius_range_m(level);
-            for (range, cone) in mesh.bands[level as usize]
-                .iter()
-                .zip(&bounds.bands[level as usize])
-            {
-                push(&mut list, range, &cone.bounding_sphere(lo, hi));
+            let d = densities.levels[level as usize];
+            let r = &mesh.levels[level as usize][d.body.k as usize];
+            let parts = [
+                &r.body,
+                &r.outer[(d.outer.k - d.body.k) as usize],
+                &r.inner[(d.inner.k - d.body.k) as usize],
+            ];
+            // Part by part, so each part's sectors merge into few draw calls.
+            for (i, part) in parts.iter().enumerate() {
+                for (range, cone) in part.iter().zip(&bounds.bands[level as usize]) {
+                    if !range.is_empty() {
+                        push(&mut list, range, &cone.bounding_sphere(lo, hi), i == 0);
+                    }
+                }
             }
         }
         let f = selection.finest as usize;
         let (lo, hi) = radius_range_m(selection.finest);
-        for (range, cone) in mesh.caps[f].iter().zip(&bounds.caps[f]) {
-            push(&mut list, range, &cone.bounding_sphere(lo, hi));
+        let k = densities.levels[f].body.k as usize;
+        for (range, cone) in mesh.levels[f][k].cap.iter().zip(&bounds.caps[f]) {
+            push(&mut list, range, &cone.bounding_sphere(lo, hi), true);
         }
         list
     }

@@ -68,6 +68,10 @@ pub struct ClipmapSettings {
     /// First level (counting from the coarsest, 0) that uses the approximation when
     /// `transform` is `Approximate`. The paper used 10; see README for our measurement.
     pub approx_start_level: u32,
+    /// Target on-screen spacing of the mesh's vertices in pixels: each level is drawn at the
+    /// coarsest ring density (every 2^k-th φ̃ step and ring, k ≤ 3) whose vertices stay this
+    /// close (`clipmap::density`). 0: every level at full density (the paper's mesh).
+    pub target_spacing_px: f32,
 }
 
 impl Default for ClipmapSettings {
@@ -81,9 +85,26 @@ impl Default for ClipmapSettings {
             blend_fraction: 0.25,
             transform: TransformForm::Stable,
             approx_start_level: 14,
+            target_spacing_px: DEFAULT_TARGET_SPACING_PX,
         }
     }
 }
+
+/// Default target vertex spacing in pixels: that of the default error budget.
+pub const DEFAULT_TARGET_SPACING_PX: f32 = 5.0 * DEFAULT_ERROR_BUDGET_PX;
+
+/// The default of the one error knob, `--error-budget` (README "One error knob").
+pub const DEFAULT_ERROR_BUDGET_PX: f32 = 2.0;
+
+/// Range of the error budget in pixels.
+pub const ERROR_BUDGET_RANGE_PX: (f32, f32) = (0.25, 12.0);
+
+/// The error budget outside its range.
+#[derive(Debug, thiserror::Error, PartialEq)]
+#[error(
+    "error budget {0} px must be between 0.25 and 12 px (the target max ρ at the frame's resolution)"
+)]
+pub struct BudgetError(pub f32);
 
 /// A setting that cannot produce a valid clipmap.
 #[derive(Debug, thiserror::Error, PartialEq)]
@@ -98,6 +119,8 @@ pub enum SettingsError {
     TextureSize(u32),
     #[error("blend_fraction = {0} must be in (0, 1]")]
     Blend(f32),
+    #[error("target vertex spacing = {0} px must be 0 (full density) or between 0.5 and 64")]
+    Spacing(f32),
 }
 
 impl ClipmapSettings {
@@ -123,6 +146,10 @@ impl ClipmapSettings {
         if !(self.blend_fraction > 0.0 && self.blend_fraction <= 1.0) {
             return Err(SettingsError::Blend(self.blend_fraction));
         }
+        let t = self.target_spacing_px;
+        if !(t == 0.0 || (0.5..=64.0).contains(&t)) {
+            return Err(SettingsError::Spacing(t));
+        }
         Ok(())
     }
 
@@ -137,6 +164,33 @@ impl ClipmapSettings {
     }
 }
 
+impl ClipmapSettings {
+    /// The settings of one error knob (issue 14): `budget_px` is the target max ρ at the
+    /// frame's resolution. The vertex spacing is 5 × the budget (the mesh is not what limits ρ
+    /// in the named scenes: `globe report` shows ρ against the budget); the texture size and,
+    /// below a pixel, the full-density mesh step with it (README "Choosing n, m and the texture
+    /// size": texture 256 → 512 cuts ρ by a third, n = 1024, m = 64 with 1024² halves it).
+    pub fn for_error_budget(budget_px: f32) -> Result<Self, BudgetError> {
+        let (lo, hi) = ERROR_BUDGET_RANGE_PX;
+        if !(lo..=hi).contains(&budget_px) {
+            return Err(BudgetError(budget_px));
+        }
+        let (texture_size, phi_steps, rings_per_level) = match budget_px {
+            b if b < 0.5 => (2048, 1024, 64),
+            b if b < 1.0 => (1024, 1024, 64),
+            b if b < 4.0 => (512, 512, 32),
+            _ => (256, 512, 32),
+        };
+        Ok(Self {
+            texture_size,
+            phi_steps,
+            rings_per_level,
+            target_spacing_px: (5.0 * budget_px).min(64.0),
+            ..Self::default()
+        })
+    }
+}
+
 /// Outer edge θ̃_{i,0} = 2^−i·π of level i (§3.4).
 pub fn level_outer_theta_rad(level: u32) -> f64 {
     std::f64::consts::PI * (-(level as f64)).exp2()
@@ -145,4 +199,33 @@ pub fn level_outer_theta_rad(level: u32) -> f64 {
 /// θ̃_{i,j} = θ̃_{i,0}·2^(−j/m) (§3.4).
 pub fn ring_theta_rad(level: u32, ring: u32, rings_per_level: u32) -> f64 {
     level_outer_theta_rad(level) * (-(ring as f64) / rings_per_level as f64).exp2()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The default settings are those of the default budget, and every budget in range makes
+    /// valid settings, denser or with larger textures as it shrinks.
+    #[test]
+    fn the_error_budget_spans_valid_settings() {
+        assert_eq!(
+            ClipmapSettings::for_error_budget(DEFAULT_ERROR_BUDGET_PX),
+            Ok(ClipmapSettings::default())
+        );
+        let mut last: Option<ClipmapSettings> = None;
+        for b in [12.0, 8.0, 4.0, 2.0, 1.0, 0.5, 0.25] {
+            let s = ClipmapSettings::for_error_budget(b).unwrap();
+            s.validate().unwrap();
+            if let Some(l) = &last {
+                assert!(s.target_spacing_px <= l.target_spacing_px);
+                assert!(s.texture_size >= l.texture_size);
+            }
+            last = Some(s);
+        }
+        assert_eq!(
+            ClipmapSettings::for_error_budget(0.1),
+            Err(BudgetError(0.1))
+        );
+    }
 }

@@ -6,10 +6,11 @@
 //! Built in three steps around the renderer's fills, all f64 and free of wgpu:
 //! [`ClipmapPlan::new`] (levels, windows) → the renderer fills what it can → [`ClipmapPlan::
 //! limit_to_held`] (a level is drawn only when it and every coarser one hold their window) →
-//! [`ClipmapPlan::cull`] (sectors).
+//! [`ClipmapPlan::cull`] (ring densities by projected size, then sectors).
 
 use std::f64::consts::PI;
 
+use crate::clipmap::density::{Density, DensityPlan, ScreenScale};
 use crate::clipmap::levels::{GridRect, LevelGrid};
 use crate::clipmap::selection::{DrawList, Frustum, LevelSelection, SectorBounds};
 use crate::clipmap::settings::level_outer_theta_rad;
@@ -45,6 +46,21 @@ pub struct ClipmapPlan {
     /// First level of the paper's trigonometric approximation (eq. 11, 14), or `None` where it
     /// is invalid (within π/48 of a pole, the paper's Fig. 12 range).
     pub approx_start_level: Option<u32>,
+    /// The ring density of every drawn level (set by [`ClipmapPlan::cull`]).
+    pub densities: DensityPlan,
+    /// Test hook: changes each drawn level's density (given the mesh's coarsest) after the
+    /// plan chose it (`tests/density.rs` compares a morphed density with the next one).
+    pub density_map: Option<DensityMap>,
+}
+
+/// A change of each level's density: (level, chosen, the mesh's coarsest k) → drawn.
+#[derive(Clone, Copy, Debug)]
+pub struct DensityMap(pub fn(u32, Density, u32) -> Density);
+
+impl PartialEq for DensityMap {
+    fn eq(&self, other: &Self) -> bool {
+        std::ptr::fn_addr_eq(self.0, other.0)
+    }
 }
 
 impl ClipmapPlan {
@@ -95,6 +111,8 @@ impl ClipmapPlan {
             fills,
             draw: DrawList::default(),
             approx_start_level: approx_ok.then_some(settings.approx_start_level),
+            densities: DensityPlan::full(settings.levels),
+            density_map: None,
         }
     }
 
@@ -126,11 +144,27 @@ impl ClipmapPlan {
     pub fn cull(
         &mut self,
         view: &ViewPlan,
+        settings: &ClipmapSettings,
         mesh: &RingMesh,
         bounds: &SectorBounds,
         query: &dyn TerrainQuery,
         draw_all_sectors: bool,
     ) {
+        let scale = ScreenScale {
+            radius_m: view.radius_m,
+            altitude_m: view.camera.altitude_m,
+            ground_m: view.camera.altitude_m - view.height_above_terrain_m,
+            focal_px: view.height_px as f64 / (2.0 * (0.5 * view.fov_y_rad).tan()),
+        };
+        self.densities = DensityPlan::new(&scale, &self.selection, settings, mesh.max_density);
+        if let Some(map) = self.density_map {
+            let body: Vec<Density> = self
+                .selection
+                .drawn_levels()
+                .map(|l| (map.0)(l, self.densities.levels[l as usize].body, mesh.max_density))
+                .collect();
+            self.densities.set_drawn(&self.selection, &body);
+        }
         if !self.selection.any_drawn() {
             self.draw = DrawList::default();
             return;
@@ -151,6 +185,7 @@ impl ClipmapPlan {
             mesh,
             bounds,
             &self.selection,
+            &self.densities,
             (!draw_all_sectors).then_some(&frustum),
             radius_range_m,
         );

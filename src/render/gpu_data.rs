@@ -9,11 +9,12 @@
 
 use bytemuck::{Pod, Zeroable};
 
+use crate::clipmap::density::DensityPlan;
 use crate::clipmap::levels::{GridRect, LevelGrid};
 use crate::clipmap::{ClipmapSettings, RingVertex};
 use crate::geo::map_transform::{Stretch, TransformUniformsF32};
 use crate::plan::{ClipmapPlan, ViewPlan};
-use crate::procedural::{Detail, MAX_OCTAVES, OctaveAnchorF32};
+use crate::procedural::{Detail, LevelOctaves, MAX_OCTAVES, OctaveAnchorF32};
 use crate::terrain::analytic::{AnalyticPlanet, SCALES, WaveAt};
 
 use super::fill::band_limit_texel_m;
@@ -146,7 +147,9 @@ pub struct FrameUniforms {
     /// The eye's altitude minus `eye_height_m` (f64 − f32): a 1 mm climb at 9 km is below
     /// one f32 step of the altitude, so the shader adds this low part after the difference.
     pub eye_height_lo_m: f32,
-    pub _pad: [u32; 2],
+    /// The ring mesh's n and m (the vertex shader finds a vertex's neighbours by index).
+    pub mesh_steps: u32,
+    pub mesh_rings: u32,
     /// λ(θ̃) = clamp(x − ln θ̃ · y, 0, z): the detail octaves geometry holds at view angle θ̃
     /// (procedural module docs); all 0 without detail.
     pub detail_lambda: [f32; 4],
@@ -163,7 +166,17 @@ pub struct LevelUniforms {
     pub dtheta_rad: f32,
     /// Index of the first partial octave (the whole ones are in the heights).
     pub detail_full: u32,
-    pub _pad: [f32; 2],
+    /// One past the last octave the level's textures hold (its normals include them all).
+    pub detail_end: u32,
+    /// Ring density k of the level's body, its outer and its inner ring (`clipmap::density`).
+    pub density: u32,
+    pub outer_density: u32,
+    pub inner_density: u32,
+    /// How far the vertices the next density drops have moved (0..1), for each of the three.
+    pub morph: f32,
+    pub outer_morph: f32,
+    pub inner_morph: f32,
+    pub _pad: [u32; 3],
 }
 
 /// One scale as the fill shader gets it. `Wave` in `shaders/fill_analytic.wgsl`.
@@ -213,6 +226,68 @@ pub struct DemFillParams {
     pub cap_south: [f32; 2],
     pub decode: [f32; 2],
     pub _pad: [u32; 2],
+}
+
+/// `NormalParams` in `shaders/fill_normals.wgsl`: one per dispatch of the normal pass.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct NormalParams {
+    pub slot0: [u32; 2],
+    pub extent: [u32; 2],
+    pub layer: u32,
+    pub size: u32,
+    pub partial_count: u32,
+    pub quarter: u32,
+    /// φ0, θ0 (radians, f32: they only orient the frame), dφ, dθ.
+    pub angles: [f32; 4],
+    /// sin θ0, cos θ0, sin φ0, cos φ0, from f64.
+    pub trig: [f32; 4],
+    pub radius_m: f32,
+    /// Job rows of θ = 0 and θ = π, −1 where the job has none.
+    pub pole_north: i32,
+    pub pole_south: i32,
+    pub _pad: u32,
+}
+
+impl NormalParams {
+    /// The normals of `rect` of `grid` (rows past a pole unfolded), whose level holds
+    /// `partial_count` partial octaves.
+    pub fn new(grid: &LevelGrid, rect: &GridRect, radius_m: f64, partial_count: u32) -> Self {
+        let phi0 = rect.gx0 as f64 * grid.dphi_rad;
+        let theta0 = rect.gy0 as f64 * grid.dtheta_rad;
+        let (st, ct) = theta0.sin_cos();
+        let (sp, cp) = phi0.sin_cos();
+        let s = grid.size as i64;
+        // θ = π is grid row S·2^level/4 (dθ = 4·2^−level·π/S).
+        let south = (s << grid.level) / 4;
+        let row = |gy: i64| {
+            let j = gy - rect.gy0;
+            if (0..rect.height as i64).contains(&j) {
+                j as i32
+            } else {
+                -1
+            }
+        };
+        Self {
+            slot0: [rect.gx0.rem_euclid(s) as u32, rect.gy0.rem_euclid(s) as u32],
+            extent: [rect.width, rect.height],
+            layer: grid.level,
+            size: grid.size,
+            partial_count,
+            quarter: grid.size / 4,
+            angles: [
+                phi0 as f32,
+                theta0 as f32,
+                grid.dphi_rad as f32,
+                grid.dtheta_rad as f32,
+            ],
+            trig: [st as f32, ct as f32, sp as f32, cp as f32],
+            radius_m: radius_m as f32,
+            pole_north: row(0),
+            pole_south: row(south),
+            _pad: 0,
+        }
+    }
 }
 
 /// `DetailOctave` in `shaders/common/detail_fill.wgsl`: one octave's lattice around a job's
@@ -318,7 +393,7 @@ impl From<&OctaveAnchorF32> for DetailOctaveParams {
 }
 
 /// `BumpUniforms` in `shaders/terrain.wgsl`: the detail's octaves anchored at the viewer, for
-/// the fragment's bump octaves (one per frame).
+/// the fragment's bump octaves, and the frame's rotation (one per frame).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub struct BumpUniforms {
@@ -335,10 +410,22 @@ impl BumpUniforms {
     /// The bump of `view` (none without detail: λ_px's range is 0).
     pub fn new(view: &ViewPlan, detail: Option<&Detail>) -> Self {
         let mut b: Self = Zeroable::zeroed();
+        let w = view.camera.view_frame().world_from_view;
+        let row = |i: usize, extra: f32| {
+            [
+                w.x_axis[i] as f32,
+                w.y_axis[i] as f32,
+                w.z_axis[i] as f32,
+                extra,
+            ]
+        };
+        // The frame's rotation (the normals are world vectors), with or without detail.
+        b.world0 = row(0, 0.0);
+        b.world1 = row(1, 0.0);
+        b.world2 = row(2, 0.0);
         let Some(detail) = detail else {
             return b;
         };
-        let w = view.camera.view_frame().world_from_view;
         let viewer_u = w * glam::DVec3::Z;
         let n = detail.octave_count();
         // N = M·W: lattice cells per unit of view-space Δu.
@@ -359,14 +446,6 @@ impl BumpUniforms {
             0.0,
         ];
         let map = detail.roughness();
-        let row = |i: usize, extra: f32| {
-            [
-                w.x_axis[i] as f32,
-                w.y_axis[i] as f32,
-                w.z_axis[i] as f32,
-                extra,
-            ]
-        };
         b.world0 = row(0, map.cols as f32);
         b.world1 = row(1, map.rows as f32);
         b.world2 = row(2, 0.0);
@@ -388,10 +467,15 @@ gpu_struct!(TransformUniformsF32 as "TransformUniforms" {
 gpu_struct!(FrameUniforms as "FrameUniforms" {
     clip_from_view, transform, sun_view, radius_m, eye_height_m, blend_fraction, texture_size,
     transform_form, approx_start_level, coarsest_level, finest_level, overlay, eye_height_lo_m,
-    detail_lambda,
+    mesh_steps, mesh_rings, detail_lambda,
 });
 gpu_struct!(LevelUniforms as "LevelUniforms" {
-    grid_x_viewer, grid_y_viewer, inv_dphi, inv_dtheta, dtheta_rad, detail_full,
+    grid_x_viewer, grid_y_viewer, inv_dphi, inv_dtheta, dtheta_rad, detail_full, detail_end,
+    density, outer_density, inner_density, morph, outer_morph, inner_morph,
+});
+gpu_struct!(NormalParams as "NormalParams" {
+    slot0, extent, layer, size, partial_count, quarter, angles, trig, radius_m, pole_north,
+    pole_south,
 });
 gpu_struct!(WaveParams as "Wave" { omega_a, omega_b, phases });
 gpu_struct!(FillParams as "FillParams" { ref_trig, spacing, slot0, extent, layer, size, waves });
@@ -457,12 +541,18 @@ pub fn pass_contracts() -> Vec<PassContract> {
                 TransformUniformsF32::layout(),
                 BumpUniforms::layout(),
                 DetailOctaveParams::layout(),
+                StructLayout {
+                    wgsl_name: "MeshVertex",
+                    ..RingVertex::layout()
+                },
             ],
             buffers: vec![
                 buffer(0, FrameUniforms::wgsl_type()),
                 buffer(1, <[LevelUniforms; MAX_LEVELS as usize]>::wgsl_type()),
                 buffer(4, BumpUniforms::wgsl_type()),
                 buffer(5, "array<f32>".to_string()),
+                // The ring vertices again, read by index for the morph's neighbours.
+                buffer(8, "array<MeshVertex>".to_string()),
             ],
             vertex: Some((RingVertex::layout(), &RING_VERTEX_ATTRIBUTES)),
             workgroup_size: None,
@@ -492,6 +582,14 @@ pub fn pass_contracts() -> Vec<PassContract> {
                 // The page table: one slot index per pyramid tile.
                 buffer(3, "array<u32>".to_string())
             }],
+            vertex: None,
+            workgroup_size: Some(workgroup),
+        },
+        PassContract {
+            file: "fill_normals.wgsl",
+            source: shader::assemble(shader::FILL_NORMALS),
+            structs: vec![NormalParams::layout()],
+            buffers: vec![buffer(0, NormalParams::wgsl_type())],
             vertex: None,
             workgroup_size: Some(workgroup),
         },
@@ -545,7 +643,8 @@ impl FrameUniforms {
             finest_level: clipmap.selection.finest,
             overlay: overlays.bits(),
             eye_height_lo_m: (altitude_m - altitude_m as f32 as f64) as f32,
-            _pad: [0; 2],
+            mesh_steps: settings.phi_steps,
+            mesh_rings: settings.rings_per_level,
             detail_lambda: detail.map_or([0.0; 4], |d| {
                 let (x, y, z) = d.lambda_constants();
                 [x as f32, y as f32, z as f32, 0.0]
@@ -559,21 +658,32 @@ impl FrameUniforms {
 pub fn level_uniforms(
     view: &ViewPlan,
     held: &[Option<LevelGrid>],
+    densities: &DensityPlan,
     detail: Option<&Detail>,
     blend_fraction: f64,
 ) -> Vec<LevelUniforms> {
     let mut levels = vec![LevelUniforms::default(); MAX_LEVELS as usize];
-    for (uniforms, grid) in levels.iter_mut().zip(held) {
+    for ((uniforms, grid), d) in levels.iter_mut().zip(held).zip(&densities.levels) {
         if let Some(g) = grid {
             let (gx, gy) = g.viewer_texel(view.phi_v_rad, view.theta_v_rad);
+            let octaves = detail.map_or(LevelOctaves::default(), |d| {
+                d.level_octaves(g.level, blend_fraction)
+            });
             *uniforms = LevelUniforms {
                 grid_x_viewer: gx as f32,
                 grid_y_viewer: gy as f32,
                 inv_dphi: (1.0 / g.dphi_rad) as f32,
                 inv_dtheta: (1.0 / g.dtheta_rad) as f32,
                 dtheta_rad: g.dtheta_rad as f32,
-                detail_full: detail.map_or(0, |d| d.level_octaves(g.level, blend_fraction).full),
-                _pad: [0.0; 2],
+                detail_full: octaves.full,
+                detail_end: octaves.full + octaves.partial,
+                density: d.body.k,
+                outer_density: d.outer.k,
+                inner_density: d.inner.k,
+                morph: d.body.morph,
+                outer_morph: d.outer.morph,
+                inner_morph: d.inner.morph,
+                _pad: [0; 3],
             };
         }
     }

@@ -24,6 +24,7 @@ const DETAIL_FILL: &str = include_str!("../../shaders/common/detail_fill.wgsl");
 pub const TERRAIN: &str = include_str!("../../shaders/terrain.wgsl");
 pub const FILL_ANALYTIC: &str = include_str!("../../shaders/fill_analytic.wgsl");
 pub const FILL_DEM: &str = include_str!("../../shaders/fill_dem.wgsl");
+pub const FILL_NORMALS: &str = include_str!("../../shaders/fill_normals.wgsl");
 
 /// A `u32` constant shared by Rust and WGSL.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -6,10 +6,12 @@
 
 use wgpu::util::DeviceExt;
 
+use crate::clipmap::density::DensityPlan;
 use crate::clipmap::levels::LevelGrid;
 use crate::clipmap::selection::{DrawList, LevelSelection, SectorBounds};
 use crate::clipmap::{ClipmapSettings, RingMesh, RingVertex};
 use crate::geo::camera::Camera;
+use crate::plan::clipmap::DensityMap;
 use crate::plan::{ClipmapPlan, HeightSource, TerrainQuery, ViewPlan};
 use crate::stream::StreamSettings;
 use crate::terrain::{Base, Terrain};
@@ -19,6 +21,7 @@ use super::dem_feed::{DemFeed, FeedFrame};
 use super::detail::{self, DetailResources};
 use super::fill::{FillJob, FillPass};
 use super::gpu_data::{self, BumpUniforms, FrameUniforms, LevelUniforms, RING_VERTEX_ATTRIBUTES};
+use super::normals::{NORMAL_FORMAT, NormalPass};
 use super::shader::{self, MAX_LEVELS};
 
 pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
@@ -29,6 +32,8 @@ pub use super::gpu_data::Overlays;
 #[derive(Clone, Debug)]
 pub struct FrameInfo {
     pub selection: LevelSelection,
+    /// The ring density each drawn level was drawn at.
+    pub densities: DensityPlan,
     pub draw: DrawList,
     /// Texels the compute pass wrote this frame (toroidal updates).
     pub texels_filled: u64,
@@ -59,6 +64,8 @@ pub struct TerrainRenderer {
     pub draw_all_levels: bool,
     /// Debug: draw every sector, including those outside the frustum.
     pub draw_all_sectors: bool,
+    /// Test hook: changes every drawn level's ring density after the plan chose it.
+    pub density_map: Option<DensityMap>,
     mesh: RingMesh,
     bounds: SectorBounds,
     vertex_buffer: wgpu::Buffer,
@@ -86,6 +93,9 @@ pub struct TerrainRenderer {
     detail: DetailResources,
     partials: wgpu::Texture,
     bump_buffer: wgpu::Buffer,
+    /// Per-level world-frame normals (`render::normals`), filled after the heights.
+    normals: wgpu::Texture,
+    normal_pass: NormalPass,
 }
 
 impl TerrainRenderer {
@@ -128,7 +138,8 @@ impl TerrainRenderer {
         let vertex_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("ring vertices"),
             contents: bytemuck::cast_slice(&mesh.vertices),
-            usage: wgpu::BufferUsages::VERTEX,
+            // Also read by index: the morph's neighbours.
+            usage: wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::STORAGE,
         });
         let index_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("ring indices"),
@@ -181,6 +192,42 @@ impl TerrainRenderer {
             12 * settings.levels,
         );
         detail_resources.bind(device, &partials_view);
+        let normals = device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("clipmap normals"),
+            size: wgpu::Extent3d {
+                width: settings.texture_size,
+                height: settings.texture_size,
+                depth_or_array_layers: settings.levels,
+            },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: NORMAL_FORMAT,
+            usage: wgpu::TextureUsages::TEXTURE_BINDING
+                | wgpu::TextureUsages::STORAGE_BINDING
+                | wgpu::TextureUsages::COPY_SRC,
+            view_formats: &[],
+        });
+        let normals_view = normals.create_view(&wgpu::TextureViewDescriptor {
+            dimension: Some(wgpu::TextureViewDimension::D2Array),
+            ..Default::default()
+        });
+        // Bilinear and toroidal: texel (x, y) holds grid point x, y mod S.
+        let normal_sampler = device.create_sampler(&wgpu::SamplerDescriptor {
+            label: Some("normal sampler"),
+            address_mode_u: wgpu::AddressMode::Repeat,
+            address_mode_v: wgpu::AddressMode::Repeat,
+            mag_filter: wgpu::FilterMode::Linear,
+            min_filter: wgpu::FilterMode::Linear,
+            ..Default::default()
+        });
+        let normal_pass = NormalPass::new(
+            device,
+            2 * settings.levels,
+            &heights_view,
+            &partials_view,
+            &normals_view,
+        );
 
         let bump_buffer = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("bump uniforms"),
@@ -234,6 +281,32 @@ impl TerrainRenderer {
                     },
                     count: None,
                 },
+                wgpu::BindGroupLayoutEntry {
+                    binding: 6,
+                    visibility: wgpu::ShaderStages::FRAGMENT,
+                    ty: wgpu::BindingType::Texture {
+                        sample_type: wgpu::TextureSampleType::Float { filterable: true },
+                        view_dimension: wgpu::TextureViewDimension::D2Array,
+                        multisampled: false,
+                    },
+                    count: None,
+                },
+                wgpu::BindGroupLayoutEntry {
+                    binding: 7,
+                    visibility: wgpu::ShaderStages::FRAGMENT,
+                    ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
+                    count: None,
+                },
+                wgpu::BindGroupLayoutEntry {
+                    binding: 8,
+                    visibility: wgpu::ShaderStages::VERTEX,
+                    ty: wgpu::BindingType::Buffer {
+                        ty: wgpu::BufferBindingType::Storage { read_only: true },
+                        has_dynamic_offset: false,
+                        min_binding_size: None,
+                    },
+                    count: None,
+                },
             ],
         });
         let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
@@ -263,6 +336,18 @@ impl TerrainRenderer {
                 wgpu::BindGroupEntry {
                     binding: 5,
                     resource: detail_resources.relief().as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 6,
+                    resource: wgpu::BindingResource::TextureView(&normals_view),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 7,
+                    resource: wgpu::BindingResource::Sampler(&normal_sampler),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 8,
+                    resource: vertex_buffer.as_entire_binding(),
                 },
             ],
         });
@@ -344,6 +429,7 @@ impl TerrainRenderer {
             overlays: Overlays::default(),
             draw_all_levels: false,
             draw_all_sectors: false,
+            density_map: None,
             mesh,
             bounds,
             vertex_buffer,
@@ -363,6 +449,8 @@ impl TerrainRenderer {
             detail: detail_resources,
             partials,
             bump_buffer,
+            normals,
+            normal_pass,
         })
     }
 
@@ -406,6 +494,26 @@ impl TerrainRenderer {
             })
             .collect();
         Ok(Some((grid, first, out)))
+    }
+
+    /// The level's world-frame normals (`render::normals`) in grid order as
+    /// [`TerrainRenderer::read_level`].
+    pub fn read_level_normals(
+        &self,
+        ctx: &super::GpuContext,
+        level: u32,
+    ) -> Result<Option<LevelNormals>, RenderError> {
+        let Some(grid) = self.grids.get(level as usize).copied().flatten() else {
+            return Ok(None);
+        };
+        let texels = self.read_layer(ctx, &self.normals, &grid, 8)?;
+        let out = texels
+            .iter()
+            .map(|b| {
+                std::array::from_fn(|c| f16_to_f32(u16::from_le_bytes([b[2 * c], b[2 * c + 1]])))
+            })
+            .collect();
+        Ok(Some((grid, out)))
     }
 
     /// The texels of `texture`'s layer `grid.level` in grid order (row gy0 first, column gx0
@@ -478,6 +586,11 @@ impl TerrainRenderer {
         Ok(out)
     }
 
+    /// The static ring mesh.
+    pub fn mesh(&self) -> &RingMesh {
+        &self.mesh
+    }
+
     /// The streaming pipeline, for a DEM.
     pub fn feed(&self) -> Option<&DemFeed> {
         self.feed.as_ref()
@@ -546,6 +659,8 @@ impl TerrainRenderer {
             self.draw_all_levels,
         );
 
+        // The fill's pass starts the fill timing, the normal pass ends it (query 3 is written
+        // by whichever runs last: the normal pass runs whenever a fill wrote something).
         let timestamps = self
             .fill_timestamps
             .as_ref()
@@ -554,7 +669,7 @@ impl TerrainRenderer {
                 beginning_of_pass_write_index: Some(2),
                 end_of_pass_write_index: Some(3),
             });
-        let (texels_filled, stream) = match (self.terrain.base(), &mut self.feed) {
+        let (texels_filled, stream, normal_jobs) = match (self.terrain.base(), &mut self.feed) {
             (Base::Analytic(planet), _) => {
                 let jobs: Vec<FillJob> = clipmap
                     .fills
@@ -572,7 +687,7 @@ impl TerrainRenderer {
                 let texels =
                     self.fill
                         .encode(queue, encoder, planet, &self.detail, &jobs, timestamps);
-                (texels, None)
+                (texels, None, jobs)
             }
             (Base::Dem(_), Some(feed)) => {
                 let nadir = (view.phi_v_rad, view.theta_v_rad);
@@ -584,27 +699,51 @@ impl TerrainRenderer {
                     &self.detail,
                     timestamps,
                 );
+                let mut done = Vec::new();
                 for (fill, ok) in clipmap.fills.iter().zip(filled) {
                     if ok {
                         self.grids[fill.grid.level as usize] = Some(fill.grid);
+                        done.extend(fill.rects.iter().map(|rect| FillJob {
+                            grid: fill.grid,
+                            rect: *rect,
+                        }));
                     }
                 }
-                (texels, Some(feed.last.clone()))
+                (texels, Some(feed.last.clone()), done)
             }
             (Base::Dem(_), None) => unreachable!("a DEM renderer always has a feed"),
         };
+        let detail = self.terrain.detail().map(|d| d.as_ref());
+        let blend = self.settings.blend_fraction as f64;
+        let normal_timestamps =
+            self.fill_timestamps
+                .as_ref()
+                .map(|q| wgpu::ComputePassTimestampWrites {
+                    query_set: q,
+                    beginning_of_pass_write_index: None,
+                    end_of_pass_write_index: Some(3),
+                });
+        self.normal_pass.encode(
+            queue,
+            encoder,
+            &normal_jobs,
+            self.terrain.radius_m(),
+            |level| detail.map_or(0, |d| d.level_octaves(level, blend).partial),
+            normal_timestamps,
+        );
         clipmap.limit_to_held(&self.grids);
+        clipmap.density_map = self.density_map;
         clipmap.cull(
             &view,
+            &self.settings,
             &self.mesh,
             &self.bounds,
             self.query(),
             self.draw_all_sectors,
         );
 
-        let detail = self.terrain.detail().map(|d| d.as_ref());
-        let blend = self.settings.blend_fraction as f64;
-        let levels = gpu_data::level_uniforms(&view, &self.grids, detail, blend);
+        let levels =
+            gpu_data::level_uniforms(&view, &self.grids, &clipmap.densities, detail, blend);
         queue.write_buffer(&self.levels_buffer, 0, bytemuck::cast_slice(&levels));
         let uniforms =
             FrameUniforms::from_plan(&view, &clipmap, &self.settings, self.overlays, detail);
@@ -623,6 +762,7 @@ impl TerrainRenderer {
         }
         FrameInfo {
             selection: clipmap.selection,
+            densities: clipmap.densities,
             draw: clipmap.draw,
             texels_filled,
             near_m: view.near_m,
@@ -696,6 +836,9 @@ impl TerrainRenderer {
         }
     }
 }
+
+/// A level's grid and its world-frame normal per grid point.
+pub type LevelNormals = (LevelGrid, Vec<[f32; 3]>);
 
 /// A level's grid, the index of its first partial octave and the partials per grid point.
 pub type LevelPartials = (LevelGrid, u32, Vec<[f32; 4]>);

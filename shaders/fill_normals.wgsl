@@ -1,0 +1,106 @@
+// Normals of a clipmap level, once per texel (compute), after its heights and partial octaves
+// were filled: the terrain pass then reads one filtered texel per level instead of evaluating
+// the height four more times per fragment (issue 14's cheap terrain pass).
+//
+// The normal is that of the level's heights with its partial detail octaves at full weight
+// (they are 100+ pixels across wherever geometry holds them, so the fragment's λ_px never
+// weakens them), stored as a world-frame (ECEF) unit vector in RGBA16F: a world vector has no
+// frame singularity at the poles, and bilinear filtering of it is meaningful everywhere. The
+// fourth channel holds the texel's height for the fragment's colour, at the texture's
+// resolution rather than the mesh's.
+//
+// Central differences on the grid, in the texel's own tangent frame (û, e_θ, e_φ):
+//   s_θ = (h(j+1) − h(j−1)) / (2(R+h)·sin dθ),
+//   s_φ = (h(i+w) − h(i−w)) / (2(R+h)·sin θ·sin(w·dφ)),   n = normalize(û − s_θ e_θ − s_φ e_φ).
+// The chord between φ ± w·dφ on one θ ring lies exactly along e_φ, so w (1 away from the
+// poles) grows near a pole to keep the chord about one θ step long. On a pole row itself
+// (sin θ = 0) the second slope is taken along the meridian a quarter turn on (column i + S/4:
+// a grid holding a pole always spans the whole circle).
+// Rust twin: render::normals::texel_normal (f64, used by tests/gpu_normals.rs).
+
+// Rust twin: render::gpu_data::NormalParams (layout checked by tests/shader_contract.rs).
+struct NormalParams {
+    slot0: vec2<u32>,     // texel of the job's first grid point (toroidal)
+    extent: vec2<u32>,
+    layer: u32,
+    size: u32,
+    partial_count: u32,   // partial octaves the level's second texture holds
+    quarter: u32,         // S/4 columns: a quarter turn when the grid holds a pole
+    angles: vec4<f32>,    // φ0, θ0 of the first grid point, dφ, dθ (radians)
+    trig: vec4<f32>,      // sin θ0, cos θ0, sin φ0, cos φ0 (from f64)
+    radius_m: f32,
+    pole_north: i32,      // job row of θ = 0 (−1: none)
+    pole_south: i32,      // job row of θ = π (−1: none)
+    _pad: u32,
+}
+
+@group(0) @binding(0) var<uniform> params: NormalParams;
+@group(0) @binding(1) var heights: texture_2d_array<f32>;
+@group(0) @binding(2) var partials: texture_2d_array<f32>;
+@group(0) @binding(3) var out_normals: texture_storage_2d_array<rgba16float, write>;
+
+// Height of the grid point (i, j) from the job's first one: (level heights, partial octaves)
+// apart, so that differences of nearby points lose nothing to the f32 sum of the two (at a
+// 5 mm texel a 4 km height's f32 step would be a 5 % slope).
+fn height_at(i: i32, j: i32) -> vec2<f32> {
+    let s = i32(params.size);
+    let x = ((i32(params.slot0.x) + i) % s + s) % s;
+    let y = ((i32(params.slot0.y) + j) % s + s) % s;
+    let layer = i32(params.layer);
+    let h = textureLoad(heights, vec2<i32>(x, y), layer, 0).x;
+    if params.partial_count == 0u {
+        return vec2<f32>(h, 0.0);
+    }
+    let p = textureLoad(partials, vec2<i32>(x, y), layer, 0);
+    let mask = select(vec4<f32>(0.0), vec4<f32>(1.0), vec4<u32>(0u, 1u, 2u, 3u) < vec4<u32>(params.partial_count));
+    return vec2<f32>(h, dot(p, mask));
+}
+
+// h(a) − h(b), each part apart.
+fn height_difference(a: vec2<f32>, b: vec2<f32>) -> f32 {
+    let d = a - b;
+    return d.x + d.y;
+}
+
+@compute @workgroup_size(WORKGROUP_SIZE, WORKGROUP_SIZE, 1)
+fn cs_main(@builtin(global_invocation_id) id: vec3<u32>) {
+    if id.x >= params.extent.x || id.y >= params.extent.y {
+        return;
+    }
+    let i = i32(id.x);
+    let j = i32(id.y);
+    let dphi = params.angles.z;
+    let dtheta = params.angles.w;
+    // sin/cos of θ and φ from the f64 anchor and the small offsets (rows past a pole keep
+    // going: θ < 0 or θ > π give the point across it, with the frame that goes with it).
+    let a = f32(j) * dtheta;
+    let b = f32(i) * dphi;
+    let st = params.trig.x * cos(a) + params.trig.y * sin(a);
+    let ct = params.trig.y * cos(a) - params.trig.x * sin(a);
+    let sp = params.trig.z * cos(b) + params.trig.w * sin(b);
+    let cp = params.trig.w * cos(b) - params.trig.z * sin(b);
+    let up = vec3<f32>(st * cp, st * sp, ct);
+    let e_theta = vec3<f32>(ct * cp, ct * sp, -st);
+    let h0 = height_at(i, j);
+    let r = params.radius_m + h0.x + h0.y;
+    let chord_theta = 2.0 * r * sin(dtheta);
+    let s_theta = height_difference(height_at(i, j + 1), height_at(i, j - 1)) / chord_theta;
+    var n: vec3<f32>;
+    if j == params.pole_north || j == params.pole_south {
+        let q = i32(params.quarter);
+        // e_θ of the meridian a quarter turn on (φ + π/2).
+        let e_theta_q = vec3<f32>(-ct * sp, ct * cp, -st);
+        let s_q = height_difference(height_at(i + q, j + 1), height_at(i + q, j - 1)) / chord_theta;
+        n = up - s_theta * e_theta - s_q * e_theta_q;
+    } else {
+        let e_phi = vec3<f32>(-sp, cp, 0.0);
+        let steps = dtheta / max(abs(st) * dphi, 1e-30);
+        let w = i32(clamp(steps, 1.0, f32(params.quarter)) + 0.5);
+        let chord_phi = 2.0 * r * st * sin(f32(w) * dphi);
+        let s_phi = height_difference(height_at(i + w, j), height_at(i - w, j)) / chord_phi;
+        n = up - s_theta * e_theta - s_phi * e_phi;
+    }
+    let slot = (params.slot0 + id.xy) % vec2<u32>(params.size);
+    // w: the height, for the fragment's colour (f16 keeps metres; colour needs no more).
+    textureStore(out_normals, slot, params.layer, vec4<f32>(normalize(n), h0.x + h0.y));
+}

@@ -1,0 +1,206 @@
+//! Triangles by projected size (issue 14): each drawn level picks the ring density of its mesh
+//! from how far apart its full-density vertices lie on screen.
+//!
+//! Density k draws every 2^k-th φ̃ step and ring (`clipmap::mesh`). A level whose full-density
+//! vertices are `s` pixels apart (the largest over the level) wants D = log2(T/s), with T the
+//! target spacing in pixels: k = ⌊D⌋ clamped to the mesh's densities. Over the upper half of
+//! each step, D ∈ [k + ½, k + 1), the vertices density k + 1 drops move onto the coarser
+//! surface (morph 0 → 1), so a switch moves nothing on screen (geomorphing). Triangle counts
+//! then follow the frame's size: halve the resolution and every level drops a density (¼ of the
+//! triangles) until the coarsest.
+//!
+//! Where two drawn levels meet, the shared ring is drawn at the coarser of their densities by
+//! both; its morph is the coarser side's (the larger one when they are equal), so both draws
+//! place every shared vertex identically and the ring's dropped vertices are already in place
+//! whichever side switches first.
+
+use super::selection::LevelSelection;
+use super::settings::{ClipmapSettings, level_outer_theta_rad};
+
+/// The density a level is drawn at, and how far its dropped vertices have moved.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Density {
+    /// k: every 2^k-th φ̃ step and ring.
+    pub k: u32,
+    /// 0..1: how far the vertices density k + 1 drops have moved onto its surface.
+    pub morph: f32,
+}
+
+/// One drawn level's density and those of its two edge rings.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct LevelDensity {
+    pub body: Density,
+    /// The outer ring (shared with the next coarser drawn level).
+    pub outer: Density,
+    /// The inner ring (shared with the next finer drawn level, or the cap's rim).
+    pub inner: Density,
+}
+
+/// What a view needs to know to size the levels on screen.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ScreenScale {
+    pub radius_m: f64,
+    /// The eye's altitude above the sphere and the ground's height under it (metres).
+    pub altitude_m: f64,
+    pub ground_m: f64,
+    /// Pixels per radian at the image centre: height_px / (2·tan(fov_y/2)).
+    pub focal_px: f64,
+}
+
+impl ScreenScale {
+    /// Distance from the eye to the surface point at view angle θ̃ (on a sphere through the
+    /// ground under the eye), without cancellation: d² = (a − g)² + 2(R+a)(R+g)(1 − cos θ̃).
+    fn distance_m(&self, theta: f64) -> f64 {
+        let (r_eye, r_ground) = (
+            self.radius_m + self.altitude_m,
+            self.radius_m + self.ground_m,
+        );
+        let half = (0.5 * theta).sin();
+        let dz = self.altitude_m - self.ground_m;
+        (dz * dz + 4.0 * r_eye * r_ground * half * half).sqrt()
+    }
+
+    /// The largest on-screen distance (pixels) between neighbouring full-density vertices of
+    /// `level`: along a ring R·sin θ̃·2π/n, across rings R·θ̃·(1 − 2^(−1/m)), each over the
+    /// distance from the eye (no foreshortening: an upper bound), sampled over the level.
+    pub fn full_density_spacing_px(&self, level: u32, settings: &ClipmapSettings) -> f64 {
+        let outer = level_outer_theta_rad(level);
+        let n = settings.phi_steps as f64;
+        let m = settings.rings_per_level as f64;
+        let across = 1.0 - (-1.0 / m).exp2();
+        (0..=8)
+            .map(|i| {
+                let theta = outer * (-(i as f64) / 8.0).exp2();
+                let along_ring = theta.sin() * std::f64::consts::TAU / n;
+                let spacing_m = self.radius_m * along_ring.max(theta * across);
+                spacing_m / self.distance_m(theta).max(1e-9) * self.focal_px
+            })
+            .fold(0.0, f64::max)
+    }
+}
+
+/// The density of a level whose full-density vertices lie `spacing_px` apart, for a target of
+/// `target_px` and densities 0..=max_k.
+pub fn density_for(spacing_px: f64, target_px: f64, max_k: u32) -> Density {
+    let d = (target_px / spacing_px.max(1e-12)).log2();
+    if !d.is_finite() || d <= 0.0 {
+        return Density::default();
+    }
+    let k = (d.floor() as u32).min(max_k);
+    if k == max_k {
+        return Density { k, morph: 0.0 };
+    }
+    let frac = d - k as f64;
+    Density {
+        k,
+        morph: ((frac - 0.5) * 2.0).clamp(0.0, 1.0) as f32,
+    }
+}
+
+/// The densities of every level of one frame (indexed by level; levels not drawn keep the
+/// default).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct DensityPlan {
+    pub levels: Vec<LevelDensity>,
+}
+
+impl DensityPlan {
+    /// Every level at full density (the paper's mesh).
+    pub fn full(levels: u32) -> Self {
+        Self {
+            levels: vec![LevelDensity::default(); levels as usize],
+        }
+    }
+
+    /// Densities of the drawn levels of `selection` for a target vertex spacing of
+    /// `settings.target_spacing_px` pixels.
+    pub fn new(
+        scale: &ScreenScale,
+        selection: &LevelSelection,
+        settings: &ClipmapSettings,
+        max_k: u32,
+    ) -> Self {
+        let mut plan = Self::full(settings.levels);
+        if settings.target_spacing_px <= 0.0 {
+            return plan;
+        }
+        let target = settings.target_spacing_px as f64;
+        let body: Vec<Density> = selection
+            .drawn_levels()
+            .map(|l| density_for(scale.full_density_spacing_px(l, settings), target, max_k))
+            .collect();
+        plan.set_drawn(selection, &body);
+        plan
+    }
+
+    /// Sets the drawn levels of `selection` to the densities `body` (coarse to fine) and their
+    /// edge rings to what the neighbours share.
+    pub fn set_drawn(&mut self, selection: &LevelSelection, body: &[Density]) {
+        // The ring between two drawn levels: the coarser density, the coarser side's morph.
+        let shared = |a: Density, b: Density| match a.k.cmp(&b.k) {
+            std::cmp::Ordering::Greater => a,
+            std::cmp::Ordering::Less => b,
+            std::cmp::Ordering::Equal => Density {
+                k: a.k,
+                morph: a.morph.max(b.morph),
+            },
+        };
+        for (i, level) in selection.drawn_levels().enumerate() {
+            let own = body[i];
+            let outer = if i > 0 { shared(body[i - 1], own) } else { own };
+            let inner = body.get(i + 1).map_or(own, |&finer| shared(own, finer));
+            self.levels[level as usize] = LevelDensity {
+                body: own,
+                outer,
+                inner,
+            };
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn density_steps_and_morphs_continuously() {
+        // Spacing equal to the target: full density, no morph.
+        assert_eq!(density_for(4.0, 4.0, 3), Density { k: 0, morph: 0.0 });
+        // Half the target: the next density starts, no morph yet.
+        assert_eq!(density_for(2.0, 4.0, 3), Density { k: 1, morph: 0.0 });
+        // D = 1.75: three quarters along, half morphed.
+        let d = density_for(4.0 / 1.75f64.exp2(), 4.0, 3);
+        assert_eq!(d.k, 1);
+        assert!((d.morph - 0.5).abs() < 1e-6);
+        // Tiny on screen: the coarsest density, nothing left to morph into.
+        assert_eq!(density_for(0.001, 4.0, 3), Density { k: 3, morph: 0.0 });
+        // Larger than the target: full density.
+        assert_eq!(density_for(40.0, 4.0, 3), Density { k: 0, morph: 0.0 });
+        // Just below a switch the dropped vertices are (almost) in place.
+        let d = density_for(4.0 / (2.0 - 1e-9f64).exp2(), 4.0, 3);
+        assert_eq!(d.k, 1);
+        assert!(d.morph > 0.999);
+    }
+
+    /// From space the levels around the nadir shrink by half each: the finer the level the
+    /// coarser its density. Halving the image halves every spacing.
+    #[test]
+    fn spacing_follows_the_image() {
+        let settings = ClipmapSettings::default();
+        let scale = |h: f64| ScreenScale {
+            radius_m: 6.371e6,
+            altitude_m: 2.0e7,
+            ground_m: 0.0,
+            focal_px: h / (2.0 * (30f64.to_radians()).tan()),
+        };
+        let big = scale(1080.0);
+        let small = scale(540.0);
+        for level in 2..10 {
+            let a = big.full_density_spacing_px(level, &settings);
+            let b = small.full_density_spacing_px(level, &settings);
+            assert!((a / b - 2.0).abs() < 1e-9);
+            let finer = big.full_density_spacing_px(level + 1, &settings);
+            assert!(finer < 0.6 * a, "level {level}: {a} → {finer}");
+        }
+    }
+}
