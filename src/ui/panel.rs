@@ -421,10 +421,11 @@ impl Panel {
                 ui.end_row();
             });
         let settings = draft.apply_to(readout.active);
-        let texture_mib = (settings.texture_size as f64).powi(2) * settings.levels as f64 * 4.0
+        // Heights (R32F), partial octaves and normals (RGBA16F each) per texel.
+        let texture_mib = (settings.texture_size as f64).powi(2) * settings.levels as f64 * 20.0
             / (1024.0 * 1024.0);
         ui.small(format!(
-            "{} triangles per level, {:.0} MiB of level textures",
+            "{} triangles per level at full density, {:.0} MiB of level textures",
             group_digits(settings.triangles_per_level()),
             texture_mib
         ));
@@ -737,6 +738,7 @@ mod tests {
         let selection = crate::clipmap::selection::LevelSelection::new(settings.levels, 0.06, 1e-8);
         let info = FrameInfo {
             selection,
+            densities: crate::clipmap::density::DensityPlan::full(settings.levels),
             draw: Default::default(),
             texels_filled: 0,
             near_m: 1.0,
