@@ -108,6 +108,15 @@ struct VertexOut {
     @location(4) rel: vec3<f32>,
 }
 
+// Pipeline constants (render::terrain): the morph's code only in the pipeline that draws
+// morphing levels, the detail's only with detail on. A CPU rasteriser runs the code of a
+// branch no lane takes, so what a draw cannot need is compiled out, not skipped.
+override MORPH: bool = true;
+override BLEND: bool = true;
+override DETAIL: bool = true;
+// The map transform's form (the same as frame.transform_form): only that form is compiled.
+override TRANSFORM: u32 = TRANSFORM_STABLE;
+
 @group(0) @binding(0) var<uniform> frame: FrameUniforms;
 @group(0) @binding(1) var<uniform> levels: array<LevelUniforms, MAX_LEVELS>;
 @group(0) @binding(2) var heights: texture_2d_array<f32>;
@@ -153,6 +162,9 @@ fn level_height(level: u32, d: vec2<f32>, lambda: f32) -> f32 {
     let h01 = textureLoad(heights, vec2<i32>(ix0, iy1), layer, 0).x;
     let h11 = textureLoad(heights, vec2<i32>(ix1, iy1), layer, 0).x;
     let h = mix(mix(h00, h10, fx), mix(h01, h11, fx), fy);
+    if !DETAIL {
+        return h;
+    }
     let k0 = f32(levels[level].detail_full);
     let w = clamp(vec4<f32>(lambda) - (vec4<f32>(k0) + vec4<f32>(0.0, 1.0, 2.0, 3.0)), vec4<f32>(0.0), vec4<f32>(1.0));
     if all(w == vec4<f32>(0.0)) {
@@ -169,7 +181,7 @@ fn level_height(level: u32, d: vec2<f32>, lambda: f32) -> f32 {
 // that a level's outer ring equals the coarser level's inner ring exactly (no cracks).
 fn terrain_height(level: u32, d: vec2<f32>, coarse_blend: f32, lambda: f32) -> f32 {
     let fine = level_height(level, d, lambda);
-    if coarse_blend <= 0.0 {
+    if !BLEND || coarse_blend <= 0.0 {
         return fine;
     }
     return mix(fine, level_height(level - 1u, d, lambda), coarse_blend);
@@ -186,7 +198,7 @@ fn coarse_blend_weight(level: u32, ring_t: f32) -> f32 {
 }
 
 fn map_transform(p_tilde: vec3<f32>, seam_side: f32, level: u32, ring_t: f32) -> vec2<f32> {
-    switch frame.transform_form {
+    switch TRANSFORM {
         case TRANSFORM_DIRECT: {
             return map_transform_direct(frame.transform, p_tilde, seam_side);
         }
@@ -261,7 +273,7 @@ fn vs_main(v: RingVertex, @builtin(vertex_index) index: u32) -> VertexOut {
         k = lu.inner_density;
         morph = lu.inner_morph;
     }
-    if morph > 0.0 && local + 1u < per_level {
+    if MORPH && morph > 0.0 && local + 1u < per_level {
         // φ̃ step of this column (column n + 1 is the second copy of step n/2).
         let t = select(column, n / 2u, column == n + 1u);
         let s = 1u << k;
@@ -398,7 +410,8 @@ fn hypsometric(h: f32) -> vec3<f32> {
         let t = clamp(-h / 6000.0, 0.0, 1.0);
         return mix(vec3<f32>(0.16, 0.42, 0.62), vec3<f32>(0.02, 0.07, 0.25), sqrt(t));
     }
-    let stops = array<vec4<f32>, 6>(
+    // `var`: a `let` array indexed at run time trips naga's pipeline-constant pass.
+    var stops = array<vec4<f32>, 6>(
         vec4<f32>(0.0, 0.20, 0.45, 0.18),
         vec4<f32>(300.0, 0.36, 0.56, 0.24),
         vec4<f32>(1000.0, 0.68, 0.64, 0.38),
@@ -418,7 +431,7 @@ fn hypsometric(h: f32) -> vec3<f32> {
 }
 
 fn level_colour(level: u32) -> vec3<f32> {
-    let palette = array<vec3<f32>, 8>(
+    var palette = array<vec3<f32>, 8>(
         vec3<f32>(0.90, 0.10, 0.10),
         vec3<f32>(0.95, 0.55, 0.05),
         vec3<f32>(0.95, 0.90, 0.10),
@@ -436,13 +449,13 @@ fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
     let level = in.level;
     let blend = clamp(in.coarse_blend, 0.0, 1.0);
     var nh = level_normal(level, in.map_pos);
-    if blend > 0.0 {
+    if BLEND && blend > 0.0 {
         nh = mix(nh, level_normal(level - 1u, in.map_pos), blend);
     }
     let nw = nh.xyz;
     // World → view: n_view = Wᵀ·n_world, the rows of W = world_from_view being bump.world*.
     var n = normalize(nw.x * bump.world0.xyz + nw.y * bump.world1.xyz + nw.z * bump.world2.xyz);
-    if bump.lambda_px.z > 0.0 {
+    if DETAIL && bump.lambda_px.z > 0.0 {
         // The footprint along the view is stretched by 1/cos of the incidence (grazing views
         // would alias the bump otherwise), up to 10×.
         let dist = length(in.rel);

@@ -44,8 +44,15 @@ pub struct RingVertex {
 /// Index ranges of one level at one density, per φ̃ sector.
 #[derive(Debug, Default)]
 pub struct LevelRanges {
-    /// The quad rows between the level's two edge rows (all rows when it has a single one).
+    /// The quad rows between the level's two edge rows (all rows when it has a single one)
+    /// whose vertices all lie inside the blend band's inner edge (no coarse-level blend)…
     pub body: Vec<Range<u32>>,
+    /// …and those whose outer ring blends into the coarser level (the renderer draws them
+    /// with the blending shader).
+    pub body_blend: Vec<Range<u32>>,
+    /// Whether the innermost row's vertices blend (only with a blend band of nearly the whole
+    /// level); the outermost row's always do.
+    pub inner_blends: bool,
     /// `outer[kb − k]`: the outermost row, its outer ring (shared with the next coarser level)
     /// at density `kb` ≥ k, fanned onto the row's inner ring at density k.
     pub outer: Vec<Vec<Range<u32>>>,
@@ -187,12 +194,18 @@ impl RingMesh {
                 // Rows 1..rows−1 (all of them when a level has a single row: then only
                 // density 0 exists and every neighbour shares it).
                 let body_rows = if rows >= 2 { 1..rows - 1 } else { 0..rows };
-                for sector in 0..sectors {
-                    let start = indices.len() as u32;
-                    for r in body_rows.clone() {
-                        row(&mut indices, sector, r * s, k, (r + 1) * s, k);
+                // A row blends when its outer ring does (ring_t < blend fraction, as the
+                // vertex shader's weight clamp(1 − ring_t/b, 0, 1) > 0).
+                let blends = |r: u32| ((r * s) as f32 / m as f32) < settings.blend_fraction;
+                ranges.inner_blends = rows >= 2 && blends(rows - 1);
+                for (want, out) in [(true, &mut ranges.body_blend), (false, &mut ranges.body)] {
+                    for sector in 0..sectors {
+                        let start = indices.len() as u32;
+                        for r in body_rows.clone().filter(|&r| blends(r) == want) {
+                            row(&mut indices, sector, r * s, k, (r + 1) * s, k);
+                        }
+                        out.push(start..indices.len() as u32);
                     }
-                    ranges.body.push(start..indices.len() as u32);
                 }
                 for kb in k..=max_k {
                     let mut outer = Vec::with_capacity(sectors as usize);
@@ -282,6 +295,7 @@ impl RingMesh {
         let r = &self.levels[level as usize][k as usize];
         let count = |v: &[Range<u32>]| v.iter().map(|r| (r.end - r.start) as u64 / 3).sum::<u64>();
         count(&r.body)
+            + count(&r.body_blend)
             + count(&r.outer[(outer - k) as usize])
             + count(&r.inner[(inner - k) as usize])
     }
@@ -417,7 +431,8 @@ mod tests {
             let lr = &mesh.levels[level][k as usize];
             for ko in k..=mesh.max_density {
                 for ki in k..=mesh.max_density {
-                    let mut ranges: Vec<&Range<u32>> = lr.body.iter().collect();
+                    let mut ranges: Vec<&Range<u32>> =
+                        lr.body.iter().chain(&lr.body_blend).collect();
                     ranges.extend(lr.outer[(ko - k) as usize].iter());
                     ranges.extend(lr.inner[(ki - k) as usize].iter());
                     let e = edges(&mesh, &ranges);

@@ -269,10 +269,25 @@ impl Frustum {
     }
 }
 
+/// What a draw range's vertices need of the terrain shader.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Variant {
+    /// Neither a blend into the coarser level nor a density morph.
+    #[default]
+    Plain,
+    /// Some vertex blends into the coarser level.
+    Blend,
+    /// Some vertex morphs (with the blend: a morph target may blend).
+    Morph,
+}
+
 /// Index ranges to draw and what was skipped.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct DrawList {
     pub ranges: Vec<Range<u32>>,
+    /// Per range: which shader variant it needs (the others leave out code that a CPU
+    /// rasteriser runs even when no lane takes it).
+    pub variants: Vec<Variant>,
     pub triangles: u64,
     pub sectors_drawn: u32,
     pub sectors_culled: u32,
@@ -293,7 +308,11 @@ impl DrawList {
     ) -> Self {
         let mut list = DrawList::default();
         // `count`: the part that stands for its sector in the drawn/culled counts.
-        let push = |list: &mut DrawList, range: &Range<u32>, sphere: &Sphere, count: bool| {
+        let push = |list: &mut DrawList,
+                    range: &Range<u32>,
+                    sphere: &Sphere,
+                    count: bool,
+                    variant: Variant| {
             if frustum.is_some_and(|f| !f.intersects(sphere)) {
                 list.sectors_culled += count as u32;
                 return;
@@ -301,33 +320,67 @@ impl DrawList {
             list.sectors_drawn += count as u32;
             list.triangles += ((range.end - range.start) / 3) as u64;
             match list.ranges.last_mut() {
-                Some(last) if last.end == range.start => last.end = range.end,
-                _ => list.ranges.push(range.clone()),
+                Some(last) if last.end == range.start && list.variants.last() == Some(&variant) => {
+                    last.end = range.end
+                }
+                _ => {
+                    list.ranges.push(range.clone());
+                    list.variants.push(variant);
+                }
             }
         };
         for level in selection.drawn_levels() {
             let (lo, hi) = radius_range_m(level);
             let d = densities.levels[level as usize];
             let r = &mesh.levels[level as usize][d.body.k as usize];
+            // The body's vertices lie strictly inside the level; an edge row's also on its
+            // edge ring.
+            let body_morph = d.body.morph > 0.0;
+            let variant = |morph: bool, blend: bool| match (morph, blend) {
+                (true, _) => Variant::Morph,
+                (false, true) => Variant::Blend,
+                (false, false) => Variant::Plain,
+            };
             let parts = [
-                &r.body,
-                &r.outer[(d.outer.k - d.body.k) as usize],
-                &r.inner[(d.inner.k - d.body.k) as usize],
+                (&r.body, variant(body_morph, false)),
+                (&r.body_blend, variant(body_morph, true)),
+                (
+                    &r.outer[(d.outer.k - d.body.k) as usize],
+                    variant(body_morph || d.outer.morph > 0.0, true),
+                ),
+                (
+                    &r.inner[(d.inner.k - d.body.k) as usize],
+                    variant(body_morph || d.inner.morph > 0.0, r.inner_blends),
+                ),
             ];
-            // Part by part, so each part's sectors merge into few draw calls.
-            for (i, part) in parts.iter().enumerate() {
-                for (range, cone) in part.iter().zip(&bounds.bands[level as usize]) {
+            // Part by part, so each part's sectors merge into few draw calls. A sector counts
+            // once in the drawn/culled figures.
+            for (i, (part, v)) in parts.iter().enumerate() {
+                for (sector, (range, cone)) in
+                    part.iter().zip(&bounds.bands[level as usize]).enumerate()
+                {
+                    // The sector's first part that has triangles stands for it.
+                    let first = parts[..i].iter().all(|(p, _)| p[sector].is_empty());
                     if !range.is_empty() {
-                        push(&mut list, range, &cone.bounding_sphere(lo, hi), i == 0);
+                        push(&mut list, range, &cone.bounding_sphere(lo, hi), first, *v);
                     }
                 }
             }
         }
         let f = selection.finest as usize;
         let (lo, hi) = radius_range_m(selection.finest);
-        let k = densities.levels[f].body.k as usize;
-        for (range, cone) in mesh.levels[f][k].cap.iter().zip(&bounds.caps[f]) {
-            push(&mut list, range, &cone.bounding_sphere(lo, hi), true);
+        let d = densities.levels[f];
+        let cap = if d.inner.morph > 0.0 {
+            Variant::Morph
+        } else {
+            Variant::Plain
+        };
+        for (range, cone) in mesh.levels[f][d.body.k as usize]
+            .cap
+            .iter()
+            .zip(&bounds.caps[f])
+        {
+            push(&mut list, range, &cone.bounding_sphere(lo, hi), true, cap);
         }
         list
     }

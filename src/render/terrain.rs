@@ -8,7 +8,7 @@ use wgpu::util::DeviceExt;
 
 use crate::clipmap::density::DensityPlan;
 use crate::clipmap::levels::LevelGrid;
-use crate::clipmap::selection::{DrawList, LevelSelection, SectorBounds};
+use crate::clipmap::selection::{DrawList, LevelSelection, SectorBounds, Variant};
 use crate::clipmap::{ClipmapSettings, RingMesh, RingVertex};
 use crate::geo::camera::Camera;
 use crate::plan::clipmap::DensityMap;
@@ -73,7 +73,9 @@ pub struct TerrainRenderer {
     frame_buffer: wgpu::Buffer,
     levels_buffer: wgpu::Buffer,
     bind_group: wgpu::BindGroup,
-    pipeline: wgpu::RenderPipeline,
+    /// One per shader variant: plain, with the coarse-level blend, with the density morph
+    /// (`clipmap::selection::Variant`, in that order).
+    pipelines: [wgpu::RenderPipeline; 3],
     /// Same vertices and triangles, flat and untextured (benchmark reference).
     passthrough: wgpu::RenderPipeline,
     /// Debug/benchmark: draw with the pass-through pipeline instead of the terrain's.
@@ -360,14 +362,21 @@ impl TerrainRenderer {
             bind_group_layouts: &[Some(&layout)],
             immediate_size: 0,
         });
-        let make_pipeline = |label, vs, fs| {
+        // Pipeline constants of terrain.wgsl: code a pipeline's draws cannot need is compiled
+        // out (a CPU rasteriser runs untaken branches).
+        let detail_on = if terrain.detail().is_some() { 1.0 } else { 0.0 };
+        let form = settings.transform.shader_code() as f64;
+        let make_pipeline = |label, vs, fs, constants: &[(&str, f64)]| {
             device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
                 label: Some(label),
                 layout: Some(&pipeline_layout),
                 vertex: wgpu::VertexState {
                     module: &module,
                     entry_point: Some(vs),
-                    compilation_options: Default::default(),
+                    compilation_options: wgpu::PipelineCompilationOptions {
+                        constants,
+                        ..Default::default()
+                    },
                     buffers: &[Some(wgpu::VertexBufferLayout {
                         array_stride: std::mem::size_of::<RingVertex>() as u64,
                         step_mode: wgpu::VertexStepMode::Vertex,
@@ -392,7 +401,10 @@ impl TerrainRenderer {
                 fragment: Some(wgpu::FragmentState {
                     module: &module,
                     entry_point: Some(fs),
-                    compilation_options: Default::default(),
+                    compilation_options: wgpu::PipelineCompilationOptions {
+                        constants,
+                        ..Default::default()
+                    },
                     targets: &[Some(wgpu::ColorTargetState {
                         format: color_format,
                         blend: None,
@@ -403,9 +415,30 @@ impl TerrainRenderer {
                 cache: None,
             })
         };
-        let pipeline = make_pipeline("terrain pipeline", "vs_main", "fs_main");
-        let passthrough =
-            make_pipeline("pass-through pipeline", "vs_passthrough", "fs_passthrough");
+        let variant = |label, morph: f64, blend: f64| {
+            make_pipeline(
+                label,
+                "vs_main",
+                "fs_main",
+                &[
+                    ("MORPH", morph),
+                    ("BLEND", blend),
+                    ("DETAIL", detail_on),
+                    ("TRANSFORM", form),
+                ],
+            )
+        };
+        let pipelines = [
+            variant("terrain pipeline", 0.0, 0.0),
+            variant("terrain pipeline (blend band)", 0.0, 1.0),
+            variant("terrain pipeline (morphing levels)", 1.0, 1.0),
+        ];
+        let passthrough = make_pipeline(
+            "pass-through pipeline",
+            "vs_passthrough",
+            "fs_passthrough",
+            &[],
+        );
         let mut fill = FillPass::new(device, 2 * settings.levels, &detail_resources);
         fill.set_target(device, &heights_view);
         let grids = vec![None; settings.levels as usize];
@@ -437,7 +470,7 @@ impl TerrainRenderer {
             frame_buffer,
             levels_buffer,
             bind_group,
-            pipeline,
+            pipelines,
             passthrough,
             use_passthrough: false,
             naive_bump: false,
@@ -823,15 +856,23 @@ impl TerrainRenderer {
 
     /// Records the terrain draw calls of `info` into `pass`.
     pub fn draw(&self, pass: &mut wgpu::RenderPass<'_>, info: &FrameInfo) {
-        pass.set_pipeline(if self.use_passthrough {
-            &self.passthrough
-        } else {
-            &self.pipeline
-        });
         pass.set_bind_group(0, &self.bind_group, &[]);
         pass.set_vertex_buffer(0, self.vertex_buffer.slice(..));
         pass.set_index_buffer(self.index_buffer.slice(..), wgpu::IndexFormat::Uint32);
-        for range in &info.draw.ranges {
+        let mut current = None;
+        for (range, &variant) in info.draw.ranges.iter().zip(&info.draw.variants) {
+            if current != Some(variant) {
+                pass.set_pipeline(if self.use_passthrough {
+                    &self.passthrough
+                } else {
+                    &self.pipelines[match variant {
+                        Variant::Plain => 0,
+                        Variant::Blend => 1,
+                        Variant::Morph => 2,
+                    }]
+                });
+                current = Some(variant);
+            }
             pass.draw_indexed(range.clone(), 0, 0..1);
         }
     }
