@@ -62,9 +62,19 @@ impl DispatchParams {
         }
     }
 
-    /// The bind-group layout entry's minimum size (one block).
-    pub(super) fn min_binding_size(&self) -> Option<wgpu::BufferSize> {
-        wgpu::BufferSize::new(self.size)
+    /// The compute stage's layout entry for the blocks at `binding` (one block, moved by the
+    /// dynamic offset).
+    pub(super) fn layout_entry(&self, binding: u32) -> wgpu::BindGroupLayoutEntry {
+        wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility: wgpu::ShaderStages::COMPUTE,
+            ty: wgpu::BindingType::Buffer {
+                ty: wgpu::BufferBindingType::Uniform,
+                has_dynamic_offset: true,
+                min_binding_size: wgpu::BufferSize::new(self.size),
+            },
+            count: None,
+        }
     }
 
     /// The binding: one block, moved by the dynamic offset.
@@ -121,16 +131,7 @@ impl FillPass {
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("fill layout"),
             entries: &[
-                wgpu::BindGroupLayoutEntry {
-                    binding: 0,
-                    visibility: wgpu::ShaderStages::COMPUTE,
-                    ty: wgpu::BindingType::Buffer {
-                        ty: wgpu::BufferBindingType::Uniform,
-                        has_dynamic_offset: true,
-                        min_binding_size: params.min_binding_size(),
-                    },
-                    count: None,
-                },
+                params.layout_entry(0),
                 wgpu::BindGroupLayoutEntry {
                     binding: 1,
                     visibility: wgpu::ShaderStages::COMPUTE,

@@ -69,16 +69,7 @@ impl NormalPass {
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("normal layout"),
             entries: &[
-                wgpu::BindGroupLayoutEntry {
-                    binding: 0,
-                    visibility: wgpu::ShaderStages::COMPUTE,
-                    ty: wgpu::BindingType::Buffer {
-                        ty: wgpu::BufferBindingType::Uniform,
-                        has_dynamic_offset: true,
-                        min_binding_size: params.min_binding_size(),
-                    },
-                    count: None,
-                },
+                params.layout_entry(0),
                 texture(1),
                 texture(2),
                 wgpu::BindGroupLayoutEntry {

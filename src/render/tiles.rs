@@ -211,14 +211,7 @@ impl DemFillPass {
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("DEM fill layout"),
             entries: &[
-                entry(
-                    0,
-                    wgpu::BindingType::Buffer {
-                        ty: wgpu::BufferBindingType::Uniform,
-                        has_dynamic_offset: true,
-                        min_binding_size: params.min_binding_size(),
-                    },
-                ),
+                params.layout_entry(0),
                 entry(
                     1,
                     wgpu::BindingType::StorageTexture {
