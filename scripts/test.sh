@@ -45,3 +45,9 @@ export GLOBE_REQUIRE_DATA=1
 # that create their instance in-process; the `globe` binary switches that layer off itself.
 export XDG_RUNTIME_DIR="${XDG_RUNTIME_DIR:-$(mktemp -d)}"
 cargo test --workspace "$@"
+# The GPU-against-f64 tests once more with every builtin sin/cos as coarse as an NVIDIA GPU's
+# (shaders/common/trig.wgsl says why): a software adapter's builtins are exact to rounding, so
+# only this shows code that a real GPU would break.
+if [ $# -eq 0 ]; then
+    GLOBE_COARSE_TRIG=1 cargo test --test gpu_detail --test gpu_normals --test gpu_transform
+fi

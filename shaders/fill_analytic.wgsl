@@ -45,9 +45,11 @@ fn cs_main(@builtin(global_invocation_id) id: vec3<u32>) {
         }
         let ba = dot(w.omega_a.xyz, du);
         let bb = dot(w.omega_b.xyz, du);
-        // sin(α + β) = sin α cos β + cos α sin β
-        let sa = w.phases.x * cos(ba) + w.phases.y * sin(ba);
-        let sb = w.phases.z * cos(bb) + w.phases.w * sin(bb);
+        // sin(α + β) = sin α cos β + cos α sin β; β is small near the anchor (trig.wgsl).
+        let sca = sin_cos_precise(ba);
+        let scb = sin_cos_precise(bb);
+        let sa = w.phases.x * sca.y + w.phases.y * sca.x;
+        let sb = w.phases.z * scb.y + w.phases.w * scb.x;
         h += w.omega_a.w * sa * sb;
     }
     let slot = (params.slot0 + id.xy) % vec2<u32>(params.size);

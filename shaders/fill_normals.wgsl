@@ -75,15 +75,18 @@ fn cs_main(@builtin(global_invocation_id) id: vec3<u32>) {
     // going: θ < 0 or θ > π give the point across it, with the frame that goes with it).
     let a = f32(j) * dtheta;
     let b = f32(i) * dphi;
-    let st = params.trig.x * cos(a) + params.trig.y * sin(a);
-    let ct = params.trig.y * cos(a) - params.trig.x * sin(a);
-    let sp = params.trig.z * cos(b) + params.trig.w * sin(b);
-    let cp = params.trig.w * cos(b) - params.trig.z * sin(b);
+    // trig.wgsl's forms: a and b are as small as 1e-9 rad on the finest levels.
+    let sca = sin_cos_precise(a);
+    let scb = sin_cos_precise(b);
+    let st = params.trig.x * sca.y + params.trig.y * sca.x;
+    let ct = params.trig.y * sca.y - params.trig.x * sca.x;
+    let sp = params.trig.z * scb.y + params.trig.w * scb.x;
+    let cp = params.trig.w * scb.y - params.trig.z * scb.x;
     let up = vec3<f32>(st * cp, st * sp, ct);
     let e_theta = vec3<f32>(ct * cp, ct * sp, -st);
     let h0 = height_at(i, j);
     let r = params.radius_m + h0.x + h0.y;
-    let chord_theta = 2.0 * r * sin(dtheta);
+    let chord_theta = 2.0 * r * sin_precise(dtheta);
     let s_theta = height_difference(height_at(i, j + 1), height_at(i, j - 1)) / chord_theta;
     var n: vec3<f32>;
     if j == params.pole_north || j == params.pole_south {
@@ -96,7 +99,7 @@ fn cs_main(@builtin(global_invocation_id) id: vec3<u32>) {
         let e_phi = vec3<f32>(-sp, cp, 0.0);
         let steps = dtheta / max(abs(st) * dphi, 1e-30);
         let w = i32(clamp(steps, 1.0, f32(params.quarter)) + 0.5);
-        let chord_phi = 2.0 * r * st * sin(f32(w) * dphi);
+        let chord_phi = 2.0 * r * st * sin_precise(f32(w) * dphi);
         let s_phi = height_difference(height_at(i + w, j), height_at(i - w, j)) / chord_phi;
         n = up - s_theta * e_theta - s_phi * e_phi;
     }

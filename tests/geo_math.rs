@@ -25,10 +25,20 @@ const REFERENCE_CSV: &str = concat!(
     env!("CARGO_MANIFEST_DIR"),
     "/tests/data/map_transform_vectors.csv"
 );
-const WGSL_LIBRARY: &str = include_str!(concat!(
-    env!("CARGO_MANIFEST_DIR"),
-    "/shaders/common/map_transform.wgsl"
-));
+/// The map transform's WGSL library with the trigonometry it calls.
+fn wgsl_library() -> String {
+    format!(
+        "{}\n{}",
+        include_str!(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/shaders/common/trig.wgsl"
+        )),
+        include_str!(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/shaders/common/map_transform.wgsl"
+        ))
+    )
+}
 
 /// One row of the reference file (radians).
 #[derive(Clone, Copy, Debug)]
@@ -758,13 +768,14 @@ fn validate_wgsl(source: &str) -> naga::Module {
 #[test]
 fn wgsl_library_validates_and_names_its_twins() {
     // The library alone: no entry points, no bindings.
-    let library = validate_wgsl(WGSL_LIBRARY);
+    let wgsl_library = wgsl_library();
+    let library = validate_wgsl(&wgsl_library);
     assert!(library.entry_points.is_empty());
     assert!(library.global_variables.is_empty());
 
     // Wrapped in a trivial compute shader that calls every function.
     let wrapper = format!(
-        "{WGSL_LIBRARY}
+        "{wgsl_library}
 @group(0) @binding(0) var<uniform> transform_uniforms: TransformUniforms;
 @group(0) @binding(1) var<storage, read_write> results: array<vec2<f32>, 4>;
 
@@ -788,9 +799,13 @@ fn cs_main() {{
         "stable_f32",
         "approx_f32",
         "blended_f32",
+        "atan2_precise_f32",
+        "sin_kernel_f32",
+        "cos_kernel_f32",
+        "sin_cos_precise_f32",
     ] {
         assert!(
-            WGSL_LIBRARY.contains(&format!("Rust twin: {twin}")),
+            wgsl_library.contains(&format!("Rust twin: {twin}")),
             "{twin}"
         );
     }

@@ -314,6 +314,84 @@ fn shader_files_declare_no_constants_of_their_own() {
     }
 }
 
+/// Builtin trigonometry a shader may still call, with why its precision is enough: Vulkan lets a
+/// driver's `sin`/`cos` be off by 2^-11 absolute and `atan2`/`acos` by 4096 ulp, and NVIDIA's
+/// `sin` returns 0 for the angle of a fine level's texel (`shaders/common/trig.wgsl`).
+const BUILTIN_TRIG_ALLOWED: [(&str, &str, &str); 2] = [
+    // The paper's eq. 4, kept as the baseline the stable form is measured against.
+    ("common/map_transform.wgsl", "map_transform_direct", "acos"),
+    // A relief-map lookup: 1024 columns need 6e-3 rad; 4096 ulp of π is 1e-3 rad.
+    ("terrain.wgsl", "relief_at_world", "atan2"),
+];
+
+#[test]
+fn shaders_call_no_builtin_trig_where_precision_matters() {
+    let builtins = [
+        "sin", "cos", "tan", "asin", "acos", "atan", "atan2", "sinh", "cosh", "tanh",
+    ];
+    let files = [
+        ("terrain.wgsl", globe::render::shader::TERRAIN),
+        ("fill_analytic.wgsl", globe::render::shader::FILL_ANALYTIC),
+        ("fill_dem.wgsl", globe::render::shader::FILL_DEM),
+        ("fill_normals.wgsl", globe::render::shader::FILL_NORMALS),
+        (
+            "common/trig.wgsl",
+            include_str!("../shaders/common/trig.wgsl"),
+        ),
+        (
+            "common/map_transform.wgsl",
+            include_str!("../shaders/common/map_transform.wgsl"),
+        ),
+        (
+            "common/noise.wgsl",
+            include_str!("../shaders/common/noise.wgsl"),
+        ),
+        (
+            "common/detail_fill.wgsl",
+            include_str!("../shaders/common/detail_fill.wgsl"),
+        ),
+    ];
+    let mut found = Vec::new();
+    let mut seen_allowed = Vec::new();
+    for (file, body) in files {
+        let mut function = "";
+        for (n, line) in body.lines().enumerate() {
+            let code = line.split("//").next().unwrap_or("");
+            if let Some(rest) = code.trim_start().strip_prefix("fn ") {
+                function = rest.split('(').next().unwrap_or("").trim();
+            }
+            let bytes = code.as_bytes();
+            for (i, _) in code.match_indices('(') {
+                let start = code[..i]
+                    .rfind(|c: char| !(c.is_ascii_alphanumeric() || c == '_'))
+                    .map_or(0, |p| p + 1);
+                let name = &code[start..i];
+                let member = start > 0 && bytes[start - 1] == b'.';
+                if !builtins.contains(&name) || member {
+                    continue;
+                }
+                if BUILTIN_TRIG_ALLOWED.contains(&(file, function, name)) {
+                    seen_allowed.push((file, function, name));
+                } else {
+                    found.push(format!("{file}:{} in {function}: {}", n + 1, line.trim()));
+                }
+            }
+        }
+    }
+    assert!(
+        found.is_empty(),
+        "builtin trig whose precision is up to the driver (use trig.wgsl's forms):\n{}",
+        found.join("\n")
+    );
+    // The scan does see calls: each allowed one is found where it is listed.
+    for allowed in BUILTIN_TRIG_ALLOWED {
+        assert!(
+            seen_allowed.contains(&allowed),
+            "{allowed:?} is allowed but the scan did not find it (moved, or the scan is blind)"
+        );
+    }
+}
+
 /// `LevelUniforms` with its first two fields swapped: what a careless edit of the Rust side
 /// would produce.
 #[repr(C)]

@@ -24,39 +24,6 @@ struct TransformUniforms {
     _pad2: f32,
 }
 
-// atan2 with a precision the map transform can rely on on every GPU. Vulkan lets a driver's
-// atan2 be off by 4096 ulp, and lavapipe's misses 1 cm at 1 km (tests/gpu_transform.rs); this
-// keeps ~1 ulp relative error for small angles, which is where the clipmap needs it.
-// Range reduction to |t| ≤ tan(π/12) (atan t = π/6 + atan((√3t − 1)/(√3 + t))), then the odd
-// Taylor series to t¹³ (truncation < 2e-10 relative). Rust twin: atan2_precise_f32.
-fn atan2_precise(y: f32, x: f32) -> f32 {
-    let ax = abs(x);
-    let ay = abs(y);
-    let hi = max(ax, ay);
-    if hi == 0.0 {
-        return 0.0;
-    }
-    var t = min(ax, ay) / hi;
-    var base = 0.0;
-    if t > 0.26794919 {
-        t = (1.7320508 * t - 1.0) / (1.7320508 + t);
-        base = 0.52359878;
-    }
-    let t2 = t * t;
-    let series = 1.0 + t2 * (-0.33333334 + t2 * (0.2 + t2 * (-0.14285715 + t2 * (0.11111111 + t2 * (-0.09090909 + t2 * 0.07692308)))));
-    var r = base + t * series;
-    if ay > ax {
-        r = 1.5707964 - r;
-    }
-    if x < 0.0 {
-        r = 3.1415927 - r;
-    }
-    if y < 0.0 {
-        r = -r;
-    }
-    return r;
-}
-
 // The world point for φv = 0. Rust twin: rotate_f32.
 fn map_transform_rotate(u: TransformUniforms, p_tilde: vec3<f32>) -> vec3<f32> {
     let p_x = u.cos_theta_v * p_tilde.x + u.sin_theta_v * p_tilde.z;

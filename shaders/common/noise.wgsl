@@ -71,13 +71,15 @@ fn value_noise(cell: vec3<i32>, f: vec3<f32>, seed: u32) -> f32 {
 }
 
 // sin(a + d) − sin a and cos(a + d) − cos a without cancellation: −2 sin²(d/2) terms.
+// The sines are trig.wgsl's: d is a texel's angular offset, down to 1e-9 rad on the finest
+// levels, where a driver's builtin sin may return 0 (trig.wgsl).
 fn delta_sin(s: f32, c: f32, d: f32) -> f32 {
-    let h = sin(0.5 * d);
-    return -2.0 * s * h * h + c * sin(d);
+    let h = sin_precise(0.5 * d);
+    return -2.0 * s * h * h + c * sin_precise(d);
 }
 fn delta_cos(s: f32, c: f32, d: f32) -> f32 {
-    let h = sin(0.5 * d);
-    return -2.0 * c * h * h - s * sin(d);
+    let h = sin_precise(0.5 * d);
+    return -2.0 * c * h * h - s * sin_precise(d);
 }
 
 // u(θr + dθ, φr + dφ) − u(θr, φr), u = (sin θ cos φ, sin θ sin φ, cos θ); ref_trig holds

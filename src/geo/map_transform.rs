@@ -36,6 +36,7 @@
 //! O(ulp·θv). Beyond a pole (p_x ≤ 0) ρ + p_x can vanish, so two more branches take over; there θ
 //! (north) or π − θ (south) is small and atan2(ρ, ±p_z) computes it to full relative precision.
 
+pub use super::trig::atan2_precise_f32;
 use glam::{DVec3, Vec3};
 use std::f64::consts::{FRAC_PI_2, PI};
 
@@ -226,42 +227,6 @@ impl TransformUniformsF32 {
             _pad2: 0.0,
         }
     }
-}
-
-/// Twin of `atan2_precise` in `shaders/common/map_transform.wgsl`, line by line: atan2 with
-/// ~1 ulp relative error for small angles on every GPU (Vulkan allows a driver's atan2 4096 ulp,
-/// and lavapipe's misses 1 cm at 1 km). Range reduction to |t| ≤ tan(π/12) via
-/// atan t = π/6 + atan((√3t − 1)/(√3 + t)), then the odd Taylor series to t¹³.
-#[allow(clippy::excessive_precision, clippy::approx_constant)]
-pub fn atan2_precise_f32(y: f32, x: f32) -> f32 {
-    let ax = x.abs();
-    let ay = y.abs();
-    let hi = ax.max(ay);
-    if hi == 0.0 {
-        return 0.0;
-    }
-    let mut t = ax.min(ay) / hi;
-    let mut base = 0.0;
-    if t > 0.26794919 {
-        t = (1.7320508 * t - 1.0) / (1.7320508 + t);
-        base = 0.52359878;
-    }
-    let t2 = t * t;
-    let series = 1.0
-        + t2 * (-0.33333334
-            + t2 * (0.2
-                + t2 * (-0.14285715 + t2 * (0.11111111 + t2 * (-0.09090909 + t2 * 0.07692308)))));
-    let mut r = base + t * series;
-    if ay > ax {
-        r = 1.5707964 - r;
-    }
-    if x < 0.0 {
-        r = 3.1415927 - r;
-    }
-    if y < 0.0 {
-        r = -r;
-    }
-    r
 }
 
 /// The seam rule of §4.4, twin of `map_transform_seam_dphi`.

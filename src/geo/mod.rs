@@ -32,6 +32,7 @@ pub mod camera;
 pub mod map_transform;
 pub mod projection;
 pub mod sphere;
+pub mod trig;
 pub mod visibility;
 
 pub use camera::{Camera, ViewFrame, pixel_ray_view};

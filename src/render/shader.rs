@@ -18,6 +18,7 @@ pub const NO_SLOT: u32 = u32::MAX;
 /// Bit of `FrameUniforms::overlay`: tint each level in its own colour.
 pub const OVERLAY_LEVELS: u32 = 1;
 
+const TRIG: &str = include_str!("../../shaders/common/trig.wgsl");
 const MAP_TRANSFORM: &str = include_str!("../../shaders/common/map_transform.wgsl");
 const NOISE: &str = include_str!("../../shaders/common/noise.wgsl");
 const DETAIL_FILL: &str = include_str!("../../shaders/common/detail_fill.wgsl");
@@ -63,11 +64,69 @@ pub fn constants() -> String {
 
 /// Full source of a pass: constants, shared library, pass body. A fill (`FILL_ANALYTIC`,
 /// `FILL_DEM`) also gets the detail's fill code and its bindings (group 1).
+///
+/// With `GLOBE_COARSE_TRIG=1` in the environment every builtin `sin`/`cos` is made as coarse
+/// as NVIDIA's ([`with_coarse_builtin_trig`]): a software adapter then shows the error a real
+/// GPU would give any code that still used them.
 pub fn assemble(pass: &str) -> String {
     let fill = if pass == FILL_ANALYTIC || pass == FILL_DEM {
         DETAIL_FILL
     } else {
         ""
     };
-    format!("{}\n{MAP_TRANSFORM}\n{NOISE}\n{fill}\n{pass}", constants())
+    let source = format!(
+        "{}\n{TRIG}\n{MAP_TRANSFORM}\n{NOISE}\n{fill}\n{pass}",
+        constants()
+    );
+    if coarse_trig_requested() {
+        with_coarse_builtin_trig(&source)
+    } else {
+        source
+    }
+}
+
+/// Whether `GLOBE_COARSE_TRIG` asks for [`with_coarse_builtin_trig`] (read once).
+fn coarse_trig_requested() -> bool {
+    static REQUESTED: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
+    *REQUESTED
+        .get_or_init(|| std::env::var("GLOBE_COARSE_TRIG").is_ok_and(|v| !v.is_empty() && v != "0"))
+}
+
+/// The WGSL builtins whose precision Vulkan leaves to the driver and [`with_coarse_builtin_trig`]
+/// replaces.
+pub const COARSE_BUILTINS: [&str; 2] = ["sin", "cos"];
+
+/// `source` with every call of the builtin `sin` and `cos` replaced by the form of NVIDIA's
+/// hardware (argument rounded to 2^-22 revolutions, 7.5e-7 rad, then exact; Rust twin
+/// [`crate::geo::trig::coarse_sin_f32`]). A software adapter's builtins are exact to rounding,
+/// so without this a test there cannot see code that only a real GPU breaks.
+/// `trig.wgsl`'s functions use no builtin trig and come out unchanged.
+pub fn with_coarse_builtin_trig(source: &str) -> String {
+    if source.contains("fn coarse_sin(") {
+        // Already made coarse (assemble under GLOBE_COARSE_TRIG).
+        return source.to_string();
+    }
+    let mut out = String::from(
+        "fn coarse_sin(x: f32) -> f32 { return sin(round(x * 0.15915494 * 4194304.0) * 1.4980281e-6); }\n\
+         fn coarse_cos(x: f32) -> f32 { return cos(round(x * 0.15915494 * 4194304.0) * 1.4980281e-6); }\n",
+    );
+    let bytes = source.as_bytes();
+    let mut i = 0;
+    'scan: while i < source.len() {
+        let boundary = i == 0 || !(bytes[i - 1].is_ascii_alphanumeric() || bytes[i - 1] == b'_');
+        if boundary {
+            for name in COARSE_BUILTINS {
+                if source[i..].starts_with(name) && source[i + name.len()..].starts_with('(') {
+                    out.push_str("coarse_");
+                    out.push_str(name);
+                    i += name.len();
+                    continue 'scan;
+                }
+            }
+        }
+        let ch = source[i..].chars().next().expect("i is on a char boundary");
+        out.push(ch);
+        i += ch.len_utf8();
+    }
+    out
 }
