@@ -410,23 +410,15 @@ fn hypsometric(h: f32) -> vec3<f32> {
         let t = clamp(-h / 6000.0, 0.0, 1.0);
         return mix(vec3<f32>(0.16, 0.42, 0.62), vec3<f32>(0.02, 0.07, 0.25), sqrt(t));
     }
-    // `var`: a `let` array indexed at run time trips naga's pipeline-constant pass.
-    var stops = array<vec4<f32>, 6>(
-        vec4<f32>(0.0, 0.20, 0.45, 0.18),
-        vec4<f32>(300.0, 0.36, 0.56, 0.24),
-        vec4<f32>(1000.0, 0.68, 0.64, 0.38),
-        vec4<f32>(2200.0, 0.52, 0.40, 0.28),
-        vec4<f32>(3800.0, 0.55, 0.53, 0.52),
-        vec4<f32>(5200.0, 0.96, 0.96, 0.98),
-    );
-    var c = stops[5].yzw;
-    for (var i = 0; i < 5; i++) {
-        if h < stops[i + 1].x {
-            let t = (h - stops[i].x) / (stops[i + 1].x - stops[i].x);
-            c = mix(stops[i].yzw, stops[i + 1].yzw, t);
-            break;
-        }
-    }
+    // Piecewise linear through the stops (0, 300, 1000, 2200, 3800, 5200 m) as a telescoping
+    // sum: each segment adds its whole step once h is past it, a fraction inside it. The same
+    // colours as a search over the stops, without an array a CPU rasteriser indexes per lane.
+    var c = vec3<f32>(0.20, 0.45, 0.18);
+    c += vec3<f32>(0.16, 0.11, 0.06) * clamp(h / 300.0, 0.0, 1.0);
+    c += vec3<f32>(0.32, 0.08, 0.14) * clamp((h - 300.0) / 700.0, 0.0, 1.0);
+    c += vec3<f32>(-0.16, -0.24, -0.10) * clamp((h - 1000.0) / 1200.0, 0.0, 1.0);
+    c += vec3<f32>(0.03, 0.13, 0.24) * clamp((h - 2200.0) / 1600.0, 0.0, 1.0);
+    c += vec3<f32>(0.41, 0.43, 0.46) * clamp((h - 3800.0) / 1400.0, 0.0, 1.0);
     return c;
 }
 
