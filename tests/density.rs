@@ -43,7 +43,9 @@ fn a_completed_morph_switches_density_without_moving_the_surface() {
         return;
     };
     let terrain = Terrain::embedded_earth().unwrap();
-    let settings = ClipmapSettings::default();
+    // Budget 2 (10 px vertex spacing): at this size every scene still has levels a density
+    // can coarsen (at the default 4 px, `space` is at the coarsest density already).
+    let settings = ClipmapSettings::for_error_budget(2.0).unwrap();
     for name in ["space", "aircraft", "ground", "everest", "north-pole"] {
         let scene = Scene::by_name(name).unwrap();
         let camera = scene.camera(|lat, lon| terrain.height_at_lat_lon_m(lat, lon));
@@ -97,7 +99,8 @@ fn a_completed_morph_switches_density_without_moving_the_surface() {
 }
 
 /// Halving the frame halves every level's on-screen spacing: `space` drops a density on its
-/// large levels and draws about a quarter of the triangles.
+/// large levels and draws about a quarter of the triangles, until its levels reach the
+/// coarsest density (n/8 × m/8), where the count stops falling.
 #[test]
 fn triangles_follow_the_frame_size() {
     let Some((ctx, _guard)) = common::gpu() else {
@@ -106,23 +109,32 @@ fn triangles_follow_the_frame_size() {
     let terrain = Terrain::embedded_earth().unwrap();
     let scene = Scene::by_name("space").unwrap();
     let camera = scene.camera(|lat, lon| terrain.height_at_lat_lon_m(lat, lon));
-    let mut r = TerrainRenderer::new(
-        &ctx.device,
-        ClipmapSettings::default(),
-        terrain.clone(),
-        COLOR_FORMAT,
-    )
-    .unwrap();
-    let big = common::render(ctx, &mut r, &camera, 1920, 1080)
-        .info
-        .draw
-        .triangles;
-    let small = common::render(ctx, &mut r, &camera, 960, 540)
-        .info
-        .draw
-        .triangles;
-    let ratio = small as f64 / big as f64;
-    println!("space: {big} triangles at 1920×1080, {small} at 960×540 (ratio {ratio:.3})");
-    assert!(big <= 52_000, "space draws {big} triangles at 1920×1080");
-    assert!((0.2..0.4).contains(&ratio), "ratio {ratio}");
+    let mut counts = Vec::new();
+    for (budget, settings) in [
+        ("default", ClipmapSettings::default()),
+        ("2 px", ClipmapSettings::for_error_budget(2.0).unwrap()),
+    ] {
+        let mut r =
+            TerrainRenderer::new(&ctx.device, settings, terrain.clone(), COLOR_FORMAT).unwrap();
+        let big = common::render(ctx, &mut r, &camera, 1920, 1080)
+            .info
+            .draw
+            .triangles;
+        let small = common::render(ctx, &mut r, &camera, 960, 540)
+            .info
+            .draw
+            .triangles;
+        let ratio = small as f64 / big as f64;
+        println!(
+            "space, budget {budget}: {big} triangles at 1920×1080, {small} at 960×540 (ratio {ratio:.3})"
+        );
+        assert!(big <= 52_000, "space draws {big} triangles at 1920×1080");
+        counts.push((big, ratio));
+    }
+    // Budget 2: a quarter, give or take the levels already at the coarsest density.
+    assert!((0.2..0.4).contains(&counts[1].1), "ratio {}", counts[1].1);
+    // The default sits near that floor at 1080p: fewer triangles than budget 2, and still
+    // fewer at half the size.
+    assert!(counts[0].0 < counts[1].0 / 2);
+    assert!(counts[0].1 < 0.5, "ratio {}", counts[0].1);
 }
