@@ -183,7 +183,7 @@ impl DemFeed {
     /// `DemTerrain::height_bounds_near_m` uses when its tiles are here, else from a coarser
     /// level (its min/max bound every finer sample), else the global range.
     pub fn height_bounds_near_m(&self, u: DVec3, angle_rad: f64) -> (f64, f64) {
-        let first = self.dem.bounds_level(angle_rad);
+        let first = self.dem.bounds_level_at(u, angle_rad);
         for level in first..self.dem.pyramid().level_count() {
             // Coarser bounds still bound the terrain: culling stays conservative and the image
             // the same, so a fallback here does not keep the frame from settling.

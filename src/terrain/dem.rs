@@ -169,7 +169,12 @@ impl DemTerrain {
         angle_rad: f64,
         code: CodeFn<'_>,
     ) -> Result<(f64, f64), NotResident> {
-        self.height_bounds_near_m_at_level_with(u, angle_rad, self.bounds_level(angle_rad), code)
+        self.height_bounds_near_m_at_level_with(
+            u,
+            angle_rad,
+            self.bounds_level_at(u, angle_rad),
+            code,
+        )
     }
 
     /// Bounds within `angle_rad` of `u` from the min/max planes of `level` (any level bounds
@@ -199,7 +204,43 @@ impl DemTerrain {
     pub fn bounds_level(&self, angle_rad: f64) -> usize {
         self.pyramid.level_for_spacing(angle_rad.to_degrees() / 4.0)
     }
+
+    /// [`DemTerrain::bounds_level`] for a cap around `u`, coarsened until the cap covers at
+    /// most [`MAX_BOUNDS_PIXELS`] pixels. Near a pole a small cap spans every longitude: at the
+    /// finest level that was all 2160 columns of the embedded Earth (43 200 at 30″) for every
+    /// drawn level, 8 ms of CPU per frame at `north-pole`. Any level's planes bound the
+    /// terrain, a coarser one more loosely, so culling stays conservative.
+    pub fn bounds_level_at(&self, u: DVec3, angle_rad: f64) -> usize {
+        let (_, theta, _) = sphere::phi_theta_height_from_ecef_m(u, 1.0);
+        let lat = std::f64::consts::FRAC_PI_2 - theta;
+        // The cap's extent in latitude and longitude, degrees (as `Pyramid::min_max_in` reads it).
+        let lat_span = 2.0 * angle_rad.to_degrees();
+        let lon_span = if lat.abs() + angle_rad >= std::f64::consts::FRAC_PI_2 {
+            360.0
+        } else {
+            2.0 * (angle_rad.sin() / lat.cos())
+                .clamp(-1.0, 1.0)
+                .asin()
+                .to_degrees()
+        };
+        let last = self.pyramid.level_count() - 1;
+        let mut level = self.bounds_level(angle_rad).min(last);
+        while level < last {
+            let g = self.pyramid.grid(level);
+            let pixels =
+                (lat_span / g.dlat_deg + 3.0) * ((lon_span / g.dlon_deg).min(g.cols as f64) + 3.0);
+            if pixels <= MAX_BOUNDS_PIXELS {
+                break;
+            }
+            level += 1;
+        }
+        level
+    }
 }
+
+/// Pixels a culling-bounds query may read ([`DemTerrain::bounds_level_at`]); away from the
+/// poles a cap takes about 8 × 8 at its own level, so only high latitudes are coarsened.
+pub const MAX_BOUNDS_PIXELS: f64 = 1024.0;
 
 /// The pole caps of a level whose grid covers the circle and reaches within one pixel of a pole.
 fn pole_caps(pyramid: &Pyramid, level: usize) -> [Option<PoleCap>; 2] {
