@@ -169,12 +169,7 @@ impl DemTerrain {
         angle_rad: f64,
         code: CodeFn<'_>,
     ) -> Result<(f64, f64), NotResident> {
-        self.height_bounds_near_m_at_level_with(
-            u,
-            angle_rad,
-            self.bounds_level_at(u, angle_rad),
-            code,
-        )
+        self.height_bounds_near_m_at_level_with(u, angle_rad, self.bounds_level(angle_rad), code)
     }
 
     /// Bounds within `angle_rad` of `u` from the min/max planes of `level` (any level bounds
@@ -209,7 +204,9 @@ impl DemTerrain {
     /// most [`MAX_BOUNDS_PIXELS`] pixels. Near a pole a small cap spans every longitude: at the
     /// finest level that was all 2160 columns of the embedded Earth (43 200 at 30″) for every
     /// drawn level, 8 ms of CPU per frame at `north-pole`. Any level's planes bound the
-    /// terrain, a coarser one more loosely, so culling stays conservative.
+    /// terrain, a coarser one more loosely, so culling stays conservative. For culling only
+    /// (`DemFeed::height_bounds_near_m`): the detail's relief map takes the finest bounds of
+    /// [`DemTerrain::height_bounds_near_m`], which set its amplitude.
     pub fn bounds_level_at(&self, u: DVec3, angle_rad: f64) -> usize {
         let (_, theta, _) = sphere::phi_theta_height_from_ecef_m(u, 1.0);
         let lat = std::f64::consts::FRAC_PI_2 - theta;
