@@ -106,6 +106,11 @@ struct VertexOut {
     @location(3) @interpolate(flat) level: u32,
     // Position relative to the eye, metres (the bump's pixel footprint).
     @location(4) rel: vec3<f32>,
+    // Aerial perspective (SKY): light scattered in between the eye and the vertex, the
+    // segment's transmittance and the sunlight reaching the vertex (common/look.wgsl).
+    @location(5) inscatter: vec3<f32>,
+    @location(6) view_t: vec3<f32>,
+    @location(7) sun_t: vec3<f32>,
 }
 
 // Pipeline constants (render::terrain): the morph's code only in the pipeline that draws
@@ -116,6 +121,11 @@ override BLEND: bool = true;
 override DETAIL: bool = true;
 // The map transform's form (the same as frame.transform_form): only that form is compiled.
 override TRANSFORM: u32 = TRANSFORM_STABLE;
+// The look (look::LookSettings): proto-textures, water (its geometry rule max(h, level) and its
+// shading), the atmosphere's haze. Off: the plain tint, one Lambert light.
+override TEXTURES: bool = true;
+override WATER: bool = true;
+override SKY: bool = true;
 
 @group(0) @binding(0) var<uniform> frame: FrameUniforms;
 @group(0) @binding(1) var<uniform> levels: array<LevelUniforms, MAX_LEVELS>;
@@ -128,6 +138,12 @@ override TRANSFORM: u32 = TRANSFORM_STABLE;
 @group(0) @binding(6) var normals: texture_2d_array<f32>;
 @group(0) @binding(7) var normal_sampler: sampler;
 @group(0) @binding(8) var<storage, read> mesh: array<MeshVertex>;
+@group(0) @binding(9) var<uniform> look: LookUniforms;
+// Proto-textures, one layer per surface type (look::proto::Material), variance-reducing mips.
+@group(0) @binding(10) var albedo: texture_2d_array<f32>;
+// rg: wave slopes (look::proto::wave_texture).
+@group(0) @binding(11) var waves: texture_2d<f32>;
+@group(0) @binding(12) var look_sampler: sampler;
 
 fn wrap_texel(i: i32) -> i32 {
     let s = i32(frame.texture_size);
@@ -234,6 +250,11 @@ fn place(p_tilde: vec3<f32>, seam_side: f32, level: u32, ring_t: f32, theta_tild
     out.d = map_transform(p_tilde, seam_side, level, ring_t);
     out.blend = coarse_blend_weight(level, ring_t);
     out.h = terrain_height(level, out.d, out.blend, detail_lambda(theta_tilde));
+    if WATER {
+        // The terrain function's water rule (terrain::with_water), per vertex before any
+        // morph so that a morphing vertex moves onto the coarser edge exactly.
+        out.h = max(out.h, look.water_level_m);
+    }
     return out;
 }
 
@@ -323,6 +344,17 @@ fn vs_main(v: RingVertex, @builtin(vertex_index) index: u32) -> VertexOut {
     out.coarse_blend = at.blend;
     out.level = v.level;
     out.rel = rel;
+    out.inscatter = vec3<f32>(0.0);
+    out.view_t = vec3<f32>(1.0);
+    out.sun_t = vec3<f32>(1.0);
+    if SKY {
+        let eye = vec3<f32>(0.0, 0.0, look.eye_radius_m);
+        let dist = length(rel);
+        let s = atmosphere_scatter(eye, rel / max(dist, 1e-6), dist, look.sun.xyz, 6u);
+        out.inscatter = s.inscatter;
+        out.view_t = s.transmittance;
+        out.sun_t = sun_transmittance(eye + rel, look.sun.xyz);
+    }
     return out;
 }
 
@@ -436,8 +468,92 @@ fn level_colour(level: u32) -> vec3<f32> {
     return palette[level % 8u];
 }
 
+// A proto-texture layer at world-stable coordinates uvw, triplanar with plane weights pw
+// (derivatives from the unwrapped coordinates: the mip level is continuous across tiles).
+// Planes: x → (y, z), y → (z, x), z → (x, y). Written out, not looped, and the layer a
+// literal in each call: lavapipe (Mesa 22.3) crashes on a dynamic component index there and
+// on an array layer passed in as a parameter.
+// The mip level of a proto-texture footprint (uv derivatives in tiles per pixel), as the
+// hardware picks it for isotropic filtering.
+fn lod_of(dx: vec2<f32>, dy: vec2<f32>) -> f32 {
+    let size = f32(PROTO_TEXTURE_SIZE);
+    return 0.5 * log2(max(max(dot(dx, dx), dot(dy, dy)) * size * size, 1e-12));
+}
+
+// Biplanar projection of world-stable texture coordinates: the two planes facing the
+// world up vector most (x → (y, z), y → (z, x), z → (x, y)), their weights sharpened and
+// normalised. Every texture read below is unconditional: lavapipe (Mesa 22.3) crashes on
+// texture reads inside branches of a function called from a divergent branch.
+struct Planes {
+    a: u32,
+    b: u32,
+    wa: f32,
+    wb: f32,
+}
+
+fn pick_planes(world_up: vec3<f32>) -> Planes {
+    let m = abs(world_up);
+    var out: Planes;
+    out.a = select(select(2u, 1u, m.y >= m.z), 0u, m.x >= m.y && m.x >= m.z);
+    let rest = select(select(vec2<u32>(0u, 1u), vec2<u32>(0u, 2u), out.a == 1u), vec2<u32>(1u, 2u), out.a == 0u);
+    out.b = select(rest.y, rest.x, m[rest.x] >= m[rest.y]);
+    let pa = pow(m[out.a], 4.0);
+    let pb = pow(m[out.b], 4.0);
+    // Fade the second plane out where it is far behind (its weight would be under 5 %).
+    let wb = max(pb / (pa + pb) - 0.05, 0.0) / 0.95;
+    out.wa = 1.0 - wb;
+    out.wb = wb;
+    return out;
+}
+
+fn on_plane(v: vec3<f32>, axis: u32) -> vec2<f32> {
+    return select(select(v.xy, v.zx, axis == 1u), v.yz, axis == 0u);
+}
+
+// A proto-texture layer at world-stable coordinates uvw on the two planes (derivatives from
+// the unwrapped coordinates: the mip level is continuous across tiles).
+fn sample_albedo(layer: u32, uvw: vec3<f32>, dx: vec3<f32>, dy: vec3<f32>, pl: Planes) -> vec3<f32> {
+    let l = i32(layer);
+    let a = textureSampleLevel(albedo, look_sampler, fract(on_plane(uvw, pl.a)), l, lod_of(on_plane(dx, pl.a), on_plane(dy, pl.a))).rgb;
+    let b = textureSampleLevel(albedo, look_sampler, fract(on_plane(uvw, pl.b)), l, lod_of(on_plane(dx, pl.b), on_plane(dy, pl.b))).rgb;
+    return pl.wa * a + pl.wb * b;
+}
+
+// A plane's 2-D vector (its two texture axes) as a world vector.
+fn from_plane(v: vec2<f32>, axis: u32) -> vec3<f32> {
+    return select(select(vec3<f32>(v.x, v.y, 0.0), vec3<f32>(v.y, 0.0, v.x), axis == 1u), vec3<f32>(0.0, v.x, v.y), axis == 0u);
+}
+
+// Wave slopes as a world vector from the wave texture (½ + ½·slope).
+fn wave_slope(uvw: vec3<f32>, dx: vec3<f32>, dy: vec3<f32>, pl: Planes) -> vec3<f32> {
+    let a = textureSampleLevel(waves, look_sampler, fract(on_plane(uvw, pl.a)), lod_of(on_plane(dx, pl.a), on_plane(dy, pl.a))).rg;
+    let b = textureSampleLevel(waves, look_sampler, fract(on_plane(uvw, pl.b)), lod_of(on_plane(dx, pl.b), on_plane(dy, pl.b))).rg;
+    return pl.wa * from_plane(2.0 * a - 1.0, pl.a) + pl.wb * from_plane(2.0 * b - 1.0, pl.b);
+}
+
+// World → view: v_view = Wᵀ·v_world (the rows of W are look.world*).
+fn view_from_world(v: vec3<f32>) -> vec3<f32> {
+    return v.x * look.world0.xyz + v.y * look.world1.xyz + v.z * look.world2.xyz;
+}
+
 @fragment
 fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
+    // World-stable texture coordinates and their screen derivatives, first (derivatives
+    // need uniform control flow). Eye-relative: small and precise near the viewer.
+    let wrel = look_world(in.rel);
+    let uvw = look.tex_anchor.xyz + wrel * look.tex_anchor.w;
+    let uvw_dx = dpdx(uvw);
+    let uvw_dy = dpdy(uvw);
+    // Metres of world per pixel (the boundary noise's band limit).
+    let footprint_m = max(length(dpdx(wrel)), length(dpdy(wrel)));
+    let drift = look.time_s * vec3<f32>(0.011, 0.007, 0.005);
+    let w0 = look.wave_anchor0.xyz + wrel * look.wave_anchor0.w + drift;
+    let w1 = look.wave_anchor1.xyz + wrel * look.wave_anchor1.w - 1.7 * drift;
+    let w0_dx = dpdx(w0);
+    let w0_dy = dpdy(w0);
+    let w1_dx = dpdx(w1);
+    let w1_dy = dpdy(w1);
+
     let level = in.level;
     let blend = clamp(in.coarse_blend, 0.0, 1.0);
     var nh = level_normal(level, in.map_pos);
@@ -445,8 +561,8 @@ fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
         nh = mix(nh, level_normal(level - 1u, in.map_pos), blend);
     }
     let nw = nh.xyz;
-    // World → view: n_view = Wᵀ·n_world, the rows of W = world_from_view being bump.world*.
-    var n = normalize(nw.x * bump.world0.xyz + nw.y * bump.world1.xyz + nw.z * bump.world2.xyz);
+    var n = normalize(view_from_world(nw));
+    let n_geometry = n;
     if DETAIL && bump.lambda_px.z > 0.0 {
         // The footprint along the view is stretched by 1/cos of the incidence (grazing views
         // would alias the bump otherwise), up to 10×.
@@ -456,8 +572,85 @@ fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
         n = normalize(n - (gb - dot(gb, n) * n));
     }
 
-    let lambert = max(dot(n, frame.sun_view.xyz), 0.0);
-    var colour = hypsometric(nh.w) * (0.28 + 0.72 * lambert);
+    let sun = frame.sun_view.xyz;
+    let up = normalize(in.p_tilde);
+    let lambert = max(dot(n, sun), 0.0);
+    // Light: the sun through the atmosphere (SKY) or one white light, and an ambient term
+    // that fades on the night side when the sky is on.
+    var direct = vec3<f32>(look.light.z);
+    var ambient = vec3<f32>(look.light.w);
+    if SKY {
+        direct = look.light.z * in.sun_t;
+        ambient = look.light.w * in.sun_t * clamp(dot(up, sun) * 3.0 + 0.3, 0.0, 1.0);
+    }
+    let h = nh.w;
+    let world_up = look_world(up);
+    let pw = pick_planes(world_up);
+    var colour: vec3<f32>;
+    if WATER && h < look.water_level_m {
+        // Water (infinite-landscapes-projected-grid.md §4.3): a flat surface at the level with
+        // small waves in the normal only, Fresnel reflection of the sky, a sun glint and a
+        // body colour by depth (shallow water shows its sandy bottom).
+        let depth = look.water_level_m - h;
+        let to_eye = -in.rel / max(length(in.rel), 1e-6);
+        let slope = wave_slope(w0, w0_dx, w0_dy, pw) + 0.6 * wave_slope(w1, w1_dx, w1_dy, pw);
+        let g = view_from_world(slope) * (0.18 * smoothstep(0.0, 8.0, depth));
+        let nwater = normalize(up - (g - dot(g, up) * up));
+        let cos_v = max(dot(nwater, to_eye), 0.0);
+        let fresnel = 0.02 + 0.98 * pow(1.0 - cos_v, 5.0);
+        let reflected = reflect(-to_eye, nwater);
+        let elevation = clamp(dot(reflected, up), 0.0, 1.0);
+        let sky = mix(look.sky_horizon.rgb, look.sky_zenith.rgb, sqrt(elevation));
+        let body_light = ambient + direct * max(dot(up, sun), 0.0);
+        let deep = mix(vec3<f32>(0.05, 0.30, 0.33), vec3<f32>(0.008, 0.035, 0.09), 1.0 - exp(-depth / 60.0));
+        let bottom = vec3<f32>(0.74, 0.66, 0.47) * exp(-depth / 3.0);
+        let body = mix(deep, bottom, exp(-depth / 3.0)) * body_light;
+        let half_v = normalize(to_eye + sun);
+        let glint = direct * 40.0 * fresnel * pow(max(dot(nwater, half_v), 0.0), 500.0);
+        colour = (1.0 - fresnel) * body + fresnel * sky + glint;
+    } else if TEXTURES && h >= 0.0 {
+        // Proto-texturing (§4.2) by height, slope and latitude, boundaries perturbed.
+        let na = boundary_octave(look.boundary_cell0, look.boundary_frac0, wrel, footprint_m);
+        let nb = boundary_octave(look.boundary_cell1, look.boundary_frac1, wrel, footprint_m);
+        let q = clamp(1.6 * na + 0.8 * nb, -1.0, 1.0);
+        let patches = clamp(0.5 + 1.2 * nb - 0.8 * na, 0.0, 1.0);
+        let slope_v = 1.0 - clamp(dot(n_geometry, up), 0.0, 1.0);
+        let wts = material_weights(h, slope_v, abs(world_up.z), q, patches);
+        // The layered weights (each type over the ones before it) as one weight per type,
+        // then the two largest: a third type rarely shows (lavapipe also needs the layer to
+        // be a computed value, not a constant per call).
+        let keep = (1.0 - wts.w) * (1.0 - wts.z);
+        var weight = array<f32, 5>(
+            keep * (1.0 - wts.y) * (1.0 - wts.x),
+            keep * (1.0 - wts.y) * wts.x,
+            keep * wts.y,
+            (1.0 - wts.w) * wts.z,
+            wts.w,
+        );
+        var first = 0u;
+        for (var k = 1u; k < 5u; k++) {
+            if weight[k] > weight[first] {
+                first = k;
+            }
+        }
+        var second = select(0u, 1u, first == 0u);
+        for (var k = 0u; k < 5u; k++) {
+            if k != first && weight[k] > weight[second] {
+                second = k;
+            }
+        }
+        let w1 = weight[first];
+        let w2 = weight[second];
+        let a1 = sample_albedo(first, uvw, uvw_dx, uvw_dy, pw);
+        let a2 = sample_albedo(second, uvw, uvw_dx, uvw_dy, pw);
+        let albedo_c = mix(a1, a2, w2 / max(w1 + w2, 1e-6));
+        colour = albedo_c * (ambient + direct * lambert);
+    } else {
+        colour = hypsometric(h) * (ambient + direct * lambert);
+    }
+    if SKY {
+        colour = tone_map(colour * in.view_t + in.inscatter);
+    }
     if (frame.overlay & OVERLAY_LEVELS) != 0u {
         colour = mix(colour, level_colour(level) * (0.35 + 0.65 * lambert), 0.6);
     }

@@ -13,6 +13,7 @@ use serde::Serialize;
 
 use crate::clipmap::ClipmapSettings;
 use crate::geo::camera::Camera;
+use crate::look::LookSettings;
 use crate::measure::ErrorStats;
 use crate::render::dem_feed::FeedFrame;
 use crate::render::offscreen::{COLOR_FORMAT, OffscreenFrame, RenderedFrame, SETTLE_TIMEOUT};
@@ -63,6 +64,8 @@ pub struct BenchOptions {
     /// Frames start at most this often (a viewer's frame rate: streaming gets the wall time a
     /// real flight gives it); None renders back to back.
     pub frame_interval: Option<std::time::Duration>,
+    /// What of the look is drawn (timed with the frame; the error does not depend on it).
+    pub look: LookSettings,
 }
 
 /// One measured frame.
@@ -176,6 +179,7 @@ pub fn run(
         COLOR_FORMAT,
         options.stream,
     )?;
+    renderer.set_look(&ctx.device, options.look);
     let timer = GpuTimer::new(ctx);
     let target = OffscreenFrame::new(&ctx.device, options.width, options.height);
     let ground = |lat: f64, lon: f64| terrain.height_at_lat_lon_m(lat, lon);
@@ -236,6 +240,7 @@ pub fn run(
             terrain.clone(),
             COLOR_FORMAT,
         )?;
+        fresh.set_look(&ctx.device, options.look);
         let loaded = target.render(ctx, &mut fresh, &final_camera)?;
         final_vs_loaded_px = Some(pixels_differing(&last, &loaded));
         final_frame = Some(last);
@@ -818,6 +823,7 @@ mod view_tests {
             passthrough: false,
             measure_error: false,
             frame_interval: None,
+            look: crate::look::LookSettings::default(),
         }
     }
 
@@ -849,6 +855,7 @@ mod view_tests {
             base: ClipmapSettings::default(),
             stream: StreamSettings::default(),
             every: 1,
+            look: crate::look::LookSettings::default(),
         };
         let names: Vec<String> = views(&o).unwrap().into_iter().map(|v| v.0).collect();
         assert_eq!(names, ["space", "ground", scenes::CAMERA_VIEW_NAME]);

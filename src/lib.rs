@@ -23,6 +23,7 @@ pub mod bench;
 pub mod clipmap;
 pub mod dem;
 pub mod geo;
+pub mod look;
 pub mod measure;
 pub mod plan;
 pub mod procedural;

@@ -12,6 +12,7 @@ use serde::Serialize;
 
 use crate::bench::{BenchError, summary};
 use crate::clipmap::{ClipmapSettings, TransformForm};
+use crate::look::LookSettings;
 use crate::measure::plot::{self, Panel, PlotSpec, Point, pareto_front};
 use crate::measure::{self, ErrorStats, PixelSet, RayCaster, ReferenceImage};
 use crate::render::offscreen::{COLOR_FORMAT, OffscreenFrame, SETTLE_TIMEOUT};
@@ -142,6 +143,8 @@ pub struct ReportOptions {
     pub frames: usize,
     pub base: ClipmapSettings,
     pub stream: StreamSettings,
+    /// What of the look is drawn in every row.
+    pub look: LookSettings,
     /// The reference is cast at pixels whose x and y are multiples of this (1: every pixel;
     /// the error statistics then cover that sample at the full resolution's footprint).
     pub every: u32,
@@ -243,6 +246,7 @@ pub fn run(
                 options.stream,
             )?;
             r.overlays.levels = setting.change.overlay_levels();
+            r.set_look(&ctx.device, options.look);
             r.settle(ctx, &camera, options.width, options.height, SETTLE_TIMEOUT);
             let mut timed = Vec::new();
             for i in 0..options.frames + 2 {

@@ -30,6 +30,7 @@ fn bench_json_has_the_promised_fields() {
         settings: ClipmapSettings::default(),
         stream: StreamSettings::default(),
         frame_interval: None::<Duration>,
+        look: globe::look::LookSettings::default(),
         measure_error: true,
         passthrough: true,
     };
@@ -94,6 +95,7 @@ fn report_covers_every_setting_and_writes_its_files() {
         base: ClipmapSettings::default(),
         stream: StreamSettings::default(),
         every: 1,
+        look: globe::look::LookSettings::default(),
     };
     let rows = report::run(ctx, &terrain, &options, |step| eprintln!("{step:?}")).unwrap();
     let grid = report::settings_grid(&options.base);

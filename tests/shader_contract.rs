@@ -273,8 +273,8 @@ fn every_assembled_module_keeps_the_contract() {
     let contracts = pass_contracts();
     assert_eq!(
         contracts.len(),
-        4,
-        "terrain, analytic fill, DEM fill, normals"
+        5,
+        "terrain, analytic fill, DEM fill, sky, normals"
     );
     for c in &contracts {
         let problems = check(c);

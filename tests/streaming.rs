@@ -87,6 +87,7 @@ fn flight_options(latency_ms: u64, fail_rate: f64, cache_bytes: u64) -> BenchOpt
             ..StreamSettings::default()
         },
         frame_interval: Some(Duration::from_millis(16)),
+        look: globe::look::LookSettings::default(),
         measure_error: false,
         passthrough: false,
     }

@@ -9,6 +9,7 @@ use clap::{Args, Parser, Subcommand, ValueEnum};
 use globe::clipmap::selection::LevelStatus;
 use globe::clipmap::settings::DEFAULT_ERROR_BUDGET_PX;
 use globe::clipmap::{ClipmapSettings, TransformForm};
+use globe::look::{LookSettings, MipKind};
 use globe::procedural::DetailSpec;
 use globe::progress::Progress;
 use globe::render::offscreen::{COLOR_FORMAT, OffscreenFrame};
@@ -75,6 +76,8 @@ struct ReportArgs {
     mesh: MeshArgs,
     #[command(flatten)]
     dem: DemArgs,
+    #[command(flatten)]
+    look: LookArgs,
     #[command(flatten)]
     stream: StreamArgs,
 }
@@ -157,6 +160,10 @@ struct DemArgs {
     /// parameter file (JSON; README "Procedural detail" lists the fields and their ranges).
     #[arg(long, value_name = "off|default|FILE", default_value = "default")]
     detail: DetailSpec,
+    /// Water at sea level: the surface is max(height, 0 m), shaded as water (measured as that
+    /// surface too); off: the bathymetry, tinted.
+    #[arg(long, value_name = "on|off", default_value = "on")]
+    water: Switch,
 }
 
 impl DemArgs {
@@ -176,7 +183,60 @@ impl DemArgs {
             p.finish();
         }
         let params = self.detail.params()?;
-        Ok(terrain.with_detail(params))
+        let water = self.water.on().then_some(globe::look::SEA_LEVEL_M);
+        Ok(terrain.with_detail(params).with_water_level(water))
+    }
+}
+
+/// On or off (a flag's value).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+enum Switch {
+    On,
+    Off,
+}
+
+impl Switch {
+    fn on(self) -> bool {
+        self == Switch::On
+    }
+}
+
+/// The proto-textures' mipmaps.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+enum TextureMips {
+    /// Variance-reducing (infinite-landscapes paper §4.2): far terrain neither shimmers nor
+    /// repeats.
+    Variance,
+    /// Plain box-filtered mipmaps (for comparison).
+    Standard,
+}
+
+/// The look of the planet (README "The look"). None of it changes the measured error.
+#[derive(Args, Clone, Debug)]
+struct LookArgs {
+    /// Proto-textured surface types (sand, grass, forest, rock, snow by height, slope and
+    /// latitude); off: the hypsometric tint.
+    #[arg(long, value_name = "on|off", default_value = "on")]
+    textures: Switch,
+    /// The atmosphere: the sky, the glow around the disk from space, haze toward the horizon;
+    /// off: a flat sky colour and raw terrain colours.
+    #[arg(long, value_name = "on|off", default_value = "on")]
+    sky: Switch,
+    /// Mipmaps of the proto-textures.
+    #[arg(long = "texture-mips", value_name = "KIND", default_value = "variance")]
+    texture_mips: TextureMips,
+}
+
+impl LookArgs {
+    fn settings(&self) -> LookSettings {
+        LookSettings {
+            textures: self.textures.on(),
+            sky: self.sky.on(),
+            mips: match self.texture_mips {
+                TextureMips::Variance => MipKind::VarianceReducing,
+                TextureMips::Standard => MipKind::Standard,
+            },
+        }
     }
 }
 
@@ -296,6 +356,8 @@ struct BenchArgs {
     #[command(flatten)]
     dem: DemArgs,
     #[command(flatten)]
+    look: LookArgs,
+    #[command(flatten)]
     stream: StreamArgs,
 }
 
@@ -315,6 +377,8 @@ struct ViewerArgs {
     mesh: MeshArgs,
     #[command(flatten)]
     dem: DemArgs,
+    #[command(flatten)]
+    look: LookArgs,
     #[command(flatten)]
     stream: StreamArgs,
 }
@@ -355,6 +419,8 @@ struct RenderArgs {
     mesh: MeshArgs,
     #[command(flatten)]
     dem: DemArgs,
+    #[command(flatten)]
+    look: LookArgs,
     #[command(flatten)]
     stream: StreamArgs,
 }
@@ -441,6 +507,7 @@ fn render(args: &RenderArgs) -> anyhow::Result<ExitCode> {
     let mut renderer =
         TerrainRenderer::with_streaming(&ctx.device, settings, terrain, COLOR_FORMAT, stream)?;
     renderer.overlays.levels = args.overlay == Some(Overlay::Levels);
+    renderer.set_look(&ctx.device, args.look.settings());
     let camera = view.camera(|lat, lon| renderer.terrain_height_m(lat, lon));
     let target = OffscreenFrame::new(&ctx.device, args.width, args.height);
     let mut frame = if args.no_wait {
@@ -526,6 +593,7 @@ fn viewer(args: &ViewerArgs) -> anyhow::Result<ExitCode> {
         settings: args.mesh.settings()?,
         overlay_levels: args.overlay == Some(Overlay::Levels),
         terrain: args.dem.open()?,
+        look: args.look.settings(),
         stream: args.stream.settings()?,
     };
     match globe::ui::run(options) {
@@ -575,6 +643,7 @@ fn bench(args: &BenchArgs) -> anyhow::Result<ExitCode> {
             stream: args.stream.settings_with_latency(latency)?,
             measure_error: !args.no_error,
             passthrough: args.passthrough,
+            look: args.look.settings(),
             frame_interval: {
                 let default = if is_flight { 60.0 } else { 0.0 };
                 let fps = args.fps.unwrap_or(default);
@@ -761,6 +830,7 @@ fn report(args: &ReportArgs) -> anyhow::Result<ExitCode> {
         frames: args.frames,
         base: args.mesh.settings()?,
         stream: args.stream.settings()?,
+        look: args.look.settings(),
         every: args.every,
     };
     let started = Instant::now();

@@ -120,7 +120,7 @@ impl HeightField for Terrain {
 
     fn local_bounds(&self, u_world: DVec3, angle_rad: f64) -> LocalBounds {
         let base = base_bounds(self, u_world, angle_rad);
-        match self.detail() {
+        let ground = match self.detail() {
             None => base,
             Some(d) => {
                 let lambda = d.lambda_full();
@@ -131,7 +131,8 @@ impl HeightField for Terrain {
                     slope_max: base.slope_max + slope,
                 }
             }
-        }
+        };
+        with_water_bounds(ground, self.water_level_m())
     }
 
     fn height_seen_m(&self, u_world: DVec3, viewer_u: DVec3) -> f64 {
@@ -146,7 +147,7 @@ impl HeightField for Terrain {
     fn local_bounds_seen(&self, u_world: DVec3, angle_rad: f64, viewer_u: DVec3) -> LocalBounds {
         let base = base_bounds(self, u_world, angle_rad);
         let Some(d) = self.detail() else {
-            return base;
+            return with_water_bounds(base, self.water_level_m());
         };
         let arc = sphere::great_circle_distance_m(u_world, viewer_u, 1.0);
         let r = d.radius_m();
@@ -168,11 +169,12 @@ impl HeightField for Terrain {
                 / (s_eff * p.lacunarity.ln())
         };
         let base = tighten(base, self.base_height_m(u_world), angle_rad * r);
-        LocalBounds {
+        let ground = LocalBounds {
             min_m: base.min_m + d_lo,
             max_m: base.max_m + d_hi,
             slope_max: base.slope_max + slope + fade_slope,
-        }
+        };
+        with_water_bounds(ground, self.water_level_m())
     }
 
     fn finest_bound_angle_rad(&self) -> f64 {
@@ -198,6 +200,17 @@ fn tighten(b: LocalBounds, centre_m: f64, radius_m: f64) -> LocalBounds {
     LocalBounds {
         min_m: b.min_m.max(centre_m - spread),
         max_m: b.max_m.min(centre_m + spread),
+        slope_max: b.slope_max,
+    }
+}
+
+/// Bounds of max(h, water) from those of h: min and max raised to the water level; the slope
+/// bound holds unchanged (max of a field and a constant is no steeper than the field).
+fn with_water_bounds(b: LocalBounds, water_level_m: Option<f64>) -> LocalBounds {
+    let (min_m, max_m) = crate::terrain::bounds_with_water((b.min_m, b.max_m), water_level_m);
+    LocalBounds {
+        min_m,
+        max_m,
         slope_max: b.slope_max,
     }
 }

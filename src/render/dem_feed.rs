@@ -22,7 +22,7 @@ use crate::stream::source::open_source;
 use crate::stream::{
     Completion, Priority, StreamSettings, StreamStats, TileCache, TileData, TileKey, TileStreamer,
 };
-use crate::terrain::DemTerrain;
+use crate::terrain::{DemTerrain, bounds_with_water, with_water};
 
 use crate::procedural::Detail;
 
@@ -80,6 +80,8 @@ pub struct DemFeed {
     read_mb_per_s: f64,
     /// The procedural detail on top of the tiles (camera ground, bounds).
     detail: Option<Arc<Detail>>,
+    /// The terrain's water level (`Terrain::water_level_m`): every answer is max(h, level).
+    water_level_m: Option<f64>,
 }
 
 /// Priority of the camera's own tile (its height picks the near plane and θ̃min).
@@ -103,6 +105,7 @@ impl DemFeed {
             gpu,
             fill: DemFillPass::new(device, fill_capacity, detail),
             detail: detail.detail().cloned(),
+            water_level_m: None,
             streamer,
             dem,
             settings,
@@ -115,6 +118,11 @@ impl DemFeed {
             rate_sample: (Instant::now(), 0),
             read_mb_per_s: 0.0,
         })
+    }
+
+    /// Sets the water level every terrain answer is raised to (`Terrain::water_level_m`).
+    pub fn set_water_level(&mut self, level_m: Option<f64>) {
+        self.water_level_m = level_m;
     }
 
     pub fn bind(&mut self, device: &wgpu::Device, heights: &wgpu::TextureView) {
@@ -521,7 +529,7 @@ impl TerrainQuery for DemFeed {
             d.amplitude_for_relief_m(d.roughness().max_relief_m())
                 * d.normalized_bound(d.lambda_full())
         });
-        (lo - b, hi + b)
+        bounds_with_water((lo - b, hi + b), self.water_level_m)
     }
     fn ground_m(&self, lat_deg: f64, lon_deg: f64) -> (f64, HeightSource) {
         self.fell_back.set(false);
@@ -536,7 +544,7 @@ impl TerrainQuery for DemFeed {
         } else {
             HeightSource::Tiles
         };
-        (h, source)
+        (with_water(h, self.water_level_m), source)
     }
     fn height_bounds_near_m(&self, u: DVec3, angle_rad: f64) -> (f64, f64) {
         let (lo, hi) = DemFeed::height_bounds_near_m(self, u, angle_rad);
@@ -544,7 +552,7 @@ impl TerrainQuery for DemFeed {
             .detail
             .as_ref()
             .map_or(0.0, |d| d.bounds_near(u, angle_rad, d.lambda_full()).0);
-        (lo - b, hi + b)
+        bounds_with_water((lo - b, hi + b), self.water_level_m)
     }
 }
 

@@ -8,11 +8,13 @@
 //! (the static ring mesh rounds its p̃ once, at build time, in `clipmap::mesh`).
 
 use bytemuck::{Pod, Zeroable};
+use glam::DVec3;
 
 use crate::clipmap::density::DensityPlan;
 use crate::clipmap::levels::{GridRect, LevelGrid};
 use crate::clipmap::{ClipmapSettings, RingVertex};
 use crate::geo::map_transform::{Stretch, TransformUniformsF32};
+use crate::look::{Atmosphere, LookSettings};
 use crate::plan::{ClipmapPlan, ViewPlan};
 use crate::procedural::{Detail, LevelOctaves, MAX_OCTAVES, OctaveAnchorF32};
 use crate::terrain::analytic::{AnalyticPlanet, SCALES, WaveAt};
@@ -153,6 +155,41 @@ pub struct FrameUniforms {
     /// λ(θ̃) = clamp(x − ln θ̃ · y, 0, z): the detail octaves geometry holds at view angle θ̃
     /// (procedural module docs); all 0 without detail.
     pub detail_lambda: [f32; 4],
+}
+
+/// `LookUniforms` in `shaders/common/look.wgsl`: the atmosphere, the proto-textures' and the
+/// water's anchors (one per frame; README "The look").
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct LookUniforms {
+    pub view_from_clip: [[f32; 4]; 4],
+    pub world0: [f32; 4],
+    pub world1: [f32; 4],
+    pub world2: [f32; 4],
+    /// frac(E/L) of the eye's ECEF position for each texture tile L (xyz), and 1/L (w).
+    pub tex_anchor: [f32; 4],
+    pub boundary_cell0: [i32; 4],
+    pub boundary_frac0: [f32; 4],
+    pub boundary_cell1: [i32; 4],
+    pub boundary_frac1: [f32; 4],
+    pub wave_anchor0: [f32; 4],
+    pub wave_anchor1: [f32; 4],
+    /// β_R (rgb), 1/H_R.
+    pub rayleigh: [f32; 4],
+    /// β_M (rgb), 1/H_M.
+    pub mie: [f32; 4],
+    /// R, top radius, Mie extinction/scattering, Mie g.
+    pub shell: [f32; 4],
+    /// Sun radiance scale, tone-map exposure, direct light, ambient light.
+    pub light: [f32; 4],
+    pub sky_zenith: [f32; 4],
+    pub sky_horizon: [f32; 4],
+    pub sun: [f32; 4],
+    pub eye_radius_m: f32,
+    pub water_level_m: f32,
+    /// Cosine of the sun disk's angular radius.
+    pub sun_cos: f32,
+    pub time_s: f32,
 }
 
 /// `LevelUniforms` in `shaders/terrain.wgsl`: one per level, `MAX_LEVELS` of them.
@@ -469,6 +506,12 @@ gpu_struct!(FrameUniforms as "FrameUniforms" {
     transform_form, approx_start_level, coarsest_level, finest_level, overlay, eye_height_lo_m,
     mesh_steps, mesh_rings, detail_lambda,
 });
+gpu_struct!(LookUniforms as "LookUniforms" {
+    view_from_clip, world0, world1, world2, tex_anchor, boundary_cell0, boundary_frac0,
+    boundary_cell1, boundary_frac1, wave_anchor0, wave_anchor1,
+    rayleigh, mie, shell, light, sky_zenith, sky_horizon, sun, eye_radius_m, water_level_m,
+    sun_cos, time_s,
+});
 gpu_struct!(LevelUniforms as "LevelUniforms" {
     grid_x_viewer, grid_y_viewer, inv_dphi, inv_dtheta, dtheta_rad, detail_full, detail_end,
     density, outer_density, inner_density, morph, outer_morph, inner_morph,
@@ -545,6 +588,7 @@ pub fn pass_contracts() -> Vec<PassContract> {
                     wgsl_name: "MeshVertex",
                     ..RingVertex::layout()
                 },
+                LookUniforms::layout(),
             ],
             buffers: vec![
                 buffer(0, FrameUniforms::wgsl_type()),
@@ -553,6 +597,7 @@ pub fn pass_contracts() -> Vec<PassContract> {
                 buffer(5, "array<f32>".to_string()),
                 // The ring vertices again, read by index for the morph's neighbours.
                 buffer(8, "array<MeshVertex>".to_string()),
+                buffer(9, LookUniforms::wgsl_type()),
             ],
             vertex: Some((RingVertex::layout(), &RING_VERTEX_ATTRIBUTES)),
             workgroup_size: None,
@@ -584,6 +629,14 @@ pub fn pass_contracts() -> Vec<PassContract> {
             }],
             vertex: None,
             workgroup_size: Some(workgroup),
+        },
+        PassContract {
+            file: "sky.wgsl",
+            source: shader::assemble(shader::SKY),
+            structs: vec![LookUniforms::layout()],
+            buffers: vec![buffer(0, LookUniforms::wgsl_type())],
+            vertex: None,
+            workgroup_size: None,
         },
         PassContract {
             file: "fill_normals.wgsl",
@@ -649,6 +702,96 @@ impl FrameUniforms {
                 let (x, y, z) = d.lambda_constants();
                 [x as f32, y as f32, z as f32, 0.0]
             }),
+        }
+    }
+}
+
+impl LookUniforms {
+    /// The frame's look: `water_level_m` is the terrain's (`None`: no water), `time_s` moves
+    /// the waves (0 in PNGs and measurements).
+    pub fn from_plan(
+        view: &ViewPlan,
+        atmosphere: &Atmosphere,
+        look: LookSettings,
+        water_level_m: Option<f64>,
+        time_s: f64,
+    ) -> Self {
+        let w = view.camera.view_frame().world_from_view;
+        let row = |i: usize| {
+            [
+                w.x_axis[i] as f32,
+                w.y_axis[i] as f32,
+                w.z_axis[i] as f32,
+                0.0,
+            ]
+        };
+        let eye_radius_m = view.radius_m + view.camera.altitude_m;
+        let eye_world = w * DVec3::Z * eye_radius_m;
+        // frac(E/L) in f64: the GPU adds only the eye-relative part (W·rel)/L.
+        let anchor = |tile_m: f64| {
+            let e = eye_world / tile_m;
+            let f = e - e.floor();
+            [f.x as f32, f.y as f32, f.z as f32, (1.0 / tile_m) as f32]
+        };
+        // The eye's cell of a world lattice of cell `cell_m` and the remainder, in f64.
+        let lattice = |cell_m: f64, seed: u32| {
+            let e = eye_world / cell_m;
+            let c = e.floor();
+            let f = e - c;
+            (
+                [c.x as i32, c.y as i32, c.z as i32, seed as i32],
+                [f.x as f32, f.y as f32, f.z as f32, (1.0 / cell_m) as f32],
+            )
+        };
+        let sun = view.sun_view;
+        let o = DVec3::new(0.0, 0.0, eye_radius_m);
+        let (zenith, horizon) = if look.sky {
+            // The horizon's colour averaged over four azimuths, just above it.
+            let zenith = atmosphere.sky_radiance(o, DVec3::Z, sun, 16);
+            let horizon = [0.0f64, 0.5, 1.0, 1.5]
+                .iter()
+                .map(|a| {
+                    let az = a * std::f64::consts::PI;
+                    let d = DVec3::new(az.cos(), az.sin(), 0.05).normalize();
+                    atmosphere.sky_radiance(o, d, sun, 16)
+                })
+                .fold(DVec3::ZERO, |acc, c| acc + c / 4.0);
+            (zenith, horizon)
+        } else {
+            let flat = DVec3::from_array(view.sky_linear);
+            (flat, flat)
+        };
+        let v4 = |v: DVec3, w: f64| [v.x as f32, v.y as f32, v.z as f32, w as f32];
+        let (direct, ambient) = if look.sky { (1.0, 0.25) } else { (0.72, 0.28) };
+        Self {
+            view_from_clip: view.clip_from_view.inverse().as_mat4().to_cols_array_2d(),
+            world0: row(0),
+            world1: row(1),
+            world2: row(2),
+            tex_anchor: anchor(crate::look::TEXTURE_TILE_M),
+            boundary_cell0: lattice(crate::look::BOUNDARY_CELLS_M[0], 0x9e37_79b9).0,
+            boundary_frac0: lattice(crate::look::BOUNDARY_CELLS_M[0], 0x9e37_79b9).1,
+            boundary_cell1: lattice(crate::look::BOUNDARY_CELLS_M[1], 0x7f4a_7c15).0,
+            boundary_frac1: lattice(crate::look::BOUNDARY_CELLS_M[1], 0x7f4a_7c15).1,
+            wave_anchor0: anchor(crate::look::WAVE_TILES_M[0]),
+            wave_anchor1: anchor(crate::look::WAVE_TILES_M[1]),
+            rayleigh: v4(atmosphere.rayleigh, 1.0 / atmosphere.rayleigh_height_m),
+            mie: v4(DVec3::splat(atmosphere.mie), 1.0 / atmosphere.mie_height_m),
+            shell: [
+                atmosphere.radius_m as f32,
+                atmosphere.top_radius_m() as f32,
+                atmosphere.mie_extinction_ratio as f32,
+                atmosphere.mie_g as f32,
+            ],
+            light: [atmosphere.sun_radiance as f32, 2.2, direct, ambient],
+            sky_zenith: v4(zenith, 0.0),
+            sky_horizon: v4(horizon, 0.0),
+            sun: v4(sun, 0.0),
+            eye_radius_m: eye_radius_m as f32,
+            water_level_m: water_level_m.unwrap_or(f64::NEG_INFINITY).max(-1e30) as f32,
+            // The sun's disk: 0.27° of angular radius.
+            sun_cos: 0.27f64.to_radians().cos() as f32,
+            time_s: time_s as f32,
         }
     }
 }

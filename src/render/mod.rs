@@ -9,6 +9,7 @@ pub mod dem_feed;
 pub mod detail;
 pub mod fill;
 pub mod gpu_data;
+pub mod look;
 pub mod normals;
 pub mod offscreen;
 pub mod shader;

@@ -22,10 +22,12 @@ const TRIG: &str = include_str!("../../shaders/common/trig.wgsl");
 const MAP_TRANSFORM: &str = include_str!("../../shaders/common/map_transform.wgsl");
 const NOISE: &str = include_str!("../../shaders/common/noise.wgsl");
 const DETAIL_FILL: &str = include_str!("../../shaders/common/detail_fill.wgsl");
+const LOOK: &str = include_str!("../../shaders/common/look.wgsl");
 pub const TERRAIN: &str = include_str!("../../shaders/terrain.wgsl");
 pub const FILL_ANALYTIC: &str = include_str!("../../shaders/fill_analytic.wgsl");
 pub const FILL_DEM: &str = include_str!("../../shaders/fill_dem.wgsl");
 pub const FILL_NORMALS: &str = include_str!("../../shaders/fill_normals.wgsl");
+pub const SKY: &str = include_str!("../../shaders/sky.wgsl");
 
 /// A `u32` constant shared by Rust and WGSL.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -44,6 +46,7 @@ pub fn shared_constants() -> Vec<SharedConstant> {
         c("NO_SLOT", NO_SLOT),
         c("OVERLAY_LEVELS", OVERLAY_LEVELS),
         c("MAX_OCTAVES", MAX_OCTAVES as u32),
+        c("PROTO_TEXTURE_SIZE", crate::look::proto::TEXTURE_SIZE),
         c("DETAIL_AMPLITUDE_VECS", (MAX_OCTAVES / 4) as u32),
         c("TRANSFORM_DIRECT", TransformForm::Direct.shader_code()),
         c("TRANSFORM_STABLE", TransformForm::Stable.shader_code()),
@@ -63,7 +66,8 @@ pub fn constants() -> String {
 }
 
 /// Full source of a pass: constants, shared library, pass body. A fill (`FILL_ANALYTIC`,
-/// `FILL_DEM`) also gets the detail's fill code and its bindings (group 1).
+/// `FILL_DEM`) also gets the detail's fill code and its bindings (group 1); the terrain and the
+/// sky pass get the look's (`common/look.wgsl`).
 ///
 /// With `GLOBE_COARSE_TRIG=1` in the environment every builtin `sin`/`cos` is made as coarse
 /// as NVIDIA's ([`with_coarse_builtin_trig`]): a software adapter then shows the error a real
@@ -74,8 +78,13 @@ pub fn assemble(pass: &str) -> String {
     } else {
         ""
     };
+    let look = if pass == TERRAIN || pass == SKY {
+        LOOK
+    } else {
+        ""
+    };
     let source = format!(
-        "{}\n{TRIG}\n{MAP_TRANSFORM}\n{NOISE}\n{fill}\n{pass}",
+        "{}\n{TRIG}\n{MAP_TRANSFORM}\n{NOISE}\n{fill}\n{look}\n{pass}",
         constants()
     );
     if coarse_trig_requested() {

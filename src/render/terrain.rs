@@ -11,6 +11,7 @@ use crate::clipmap::levels::LevelGrid;
 use crate::clipmap::selection::{DrawList, LevelSelection, SectorBounds, Variant};
 use crate::clipmap::{ClipmapSettings, RingMesh, RingVertex};
 use crate::geo::camera::Camera;
+use crate::look::{Atmosphere, LookSettings};
 use crate::plan::clipmap::DensityMap;
 use crate::plan::{ClipmapPlan, HeightSource, TerrainQuery, ViewPlan};
 use crate::stream::StreamSettings;
@@ -20,7 +21,10 @@ use super::RenderError;
 use super::dem_feed::{DemFeed, FeedFrame};
 use super::detail::{self, DetailResources};
 use super::fill::{FillJob, FillPass};
-use super::gpu_data::{self, BumpUniforms, FrameUniforms, LevelUniforms, RING_VERTEX_ATTRIBUTES};
+use super::gpu_data::{
+    self, BumpUniforms, FrameUniforms, LevelUniforms, LookUniforms, RING_VERTEX_ATTRIBUTES,
+};
+use super::look::LookResources;
 use super::normals::{NORMAL_FORMAT, NormalPass};
 use super::shader::{self, MAX_LEVELS};
 
@@ -78,6 +82,14 @@ pub struct TerrainRenderer {
     pipelines: [wgpu::RenderPipeline; 3],
     /// Same vertices and triangles, flat and untextured (benchmark reference).
     passthrough: wgpu::RenderPipeline,
+    pipeline_parts: PipelineParts,
+    /// What of the look is drawn (`set_look`).
+    look: LookSettings,
+    look_resources: LookResources,
+    /// The atmosphere's media (the sky and the haze).
+    pub atmosphere: Atmosphere,
+    /// Seconds of wave motion (0 in PNGs and measurements; the viewer's clock).
+    pub look_time_s: f64,
     /// Debug/benchmark: draw with the pass-through pipeline instead of the terrain's.
     pub use_passthrough: bool,
     /// Measurement: shade every bump octave whatever its size on screen (the naive policy the
@@ -134,6 +146,7 @@ impl TerrainRenderer {
         if let Some(d) = terrain.detail() {
             d.check_blend(settings.blend_fraction as f64)?;
         }
+        let radius_m = terrain.radius_m();
         let mesh = RingMesh::build(&settings);
         let bounds = SectorBounds::new(&mesh);
 
@@ -237,6 +250,7 @@ impl TerrainRenderer {
             usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
+        let look_resources = LookResources::new(device, color_format);
         let uniform_entry = |binding| wgpu::BindGroupLayoutEntry {
             binding,
             visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
@@ -288,6 +302,24 @@ impl TerrainRenderer {
                     count: None,
                 },
                 storage_entry(8, wgpu::ShaderStages::VERTEX),
+                uniform_entry(9),
+                texture_entry(10, fragment, true),
+                wgpu::BindGroupLayoutEntry {
+                    binding: 11,
+                    visibility: fragment,
+                    ty: wgpu::BindingType::Texture {
+                        sample_type: wgpu::TextureSampleType::Float { filterable: true },
+                        view_dimension: wgpu::TextureViewDimension::D2,
+                        multisampled: false,
+                    },
+                    count: None,
+                },
+                wgpu::BindGroupLayoutEntry {
+                    binding: 12,
+                    visibility: fragment,
+                    ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
+                    count: None,
+                },
             ],
         });
         let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
@@ -330,6 +362,22 @@ impl TerrainRenderer {
                     binding: 8,
                     resource: vertex_buffer.as_entire_binding(),
                 },
+                wgpu::BindGroupEntry {
+                    binding: 9,
+                    resource: look_resources.uniforms.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 10,
+                    resource: wgpu::BindingResource::TextureView(&look_resources.albedo_view),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 11,
+                    resource: wgpu::BindingResource::TextureView(&look_resources.waves_view),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 12,
+                    resource: wgpu::BindingResource::Sampler(&look_resources.sampler),
+                },
             ],
         });
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
@@ -341,83 +389,16 @@ impl TerrainRenderer {
             bind_group_layouts: &[Some(&layout)],
             immediate_size: 0,
         });
-        // Pipeline constants of terrain.wgsl: code a pipeline's draws cannot need is compiled
-        // out (a CPU rasteriser runs untaken branches).
-        let detail_on = if terrain.detail().is_some() { 1.0 } else { 0.0 };
-        let form = settings.transform.shader_code() as f64;
-        let make_pipeline = |label, vs, fs, constants: &[(&str, f64)]| {
-            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-                label: Some(label),
-                layout: Some(&pipeline_layout),
-                vertex: wgpu::VertexState {
-                    module: &module,
-                    entry_point: Some(vs),
-                    compilation_options: wgpu::PipelineCompilationOptions {
-                        constants,
-                        ..Default::default()
-                    },
-                    buffers: &[Some(wgpu::VertexBufferLayout {
-                        array_stride: std::mem::size_of::<RingVertex>() as u64,
-                        step_mode: wgpu::VertexStepMode::Vertex,
-                        attributes: &RING_VERTEX_ATTRIBUTES,
-                    })],
-                },
-                primitive: wgpu::PrimitiveState {
-                    topology: wgpu::PrimitiveTopology::TriangleList,
-                    front_face: wgpu::FrontFace::Ccw,
-                    cull_mode: Some(wgpu::Face::Back),
-                    ..Default::default()
-                },
-                depth_stencil: Some(wgpu::DepthStencilState {
-                    format: DEPTH_FORMAT,
-                    depth_write_enabled: Some(true),
-                    // Reversed-Z: nearer is larger.
-                    depth_compare: Some(wgpu::CompareFunction::Greater),
-                    stencil: Default::default(),
-                    bias: Default::default(),
-                }),
-                multisample: Default::default(),
-                fragment: Some(wgpu::FragmentState {
-                    module: &module,
-                    entry_point: Some(fs),
-                    compilation_options: wgpu::PipelineCompilationOptions {
-                        constants,
-                        ..Default::default()
-                    },
-                    targets: &[Some(wgpu::ColorTargetState {
-                        format: color_format,
-                        blend: None,
-                        write_mask: wgpu::ColorWrites::ALL,
-                    })],
-                }),
-                multiview_mask: None,
-                cache: None,
-            })
+        let pipeline_parts = PipelineParts {
+            module,
+            layout: pipeline_layout,
+            color_format,
+            detail_on: terrain.detail().is_some(),
+            water_on: terrain.water_level_m().is_some(),
+            form: settings.transform.shader_code(),
         };
-        let variant = |label, morph: f64, blend: f64| {
-            make_pipeline(
-                label,
-                "vs_main",
-                "fs_main",
-                &[
-                    ("MORPH", morph),
-                    ("BLEND", blend),
-                    ("DETAIL", detail_on),
-                    ("TRANSFORM", form),
-                ],
-            )
-        };
-        let pipelines = [
-            variant("terrain pipeline", 0.0, 0.0),
-            variant("terrain pipeline (blend band)", 0.0, 1.0),
-            variant("terrain pipeline (morphing levels)", 1.0, 1.0),
-        ];
-        let passthrough = make_pipeline(
-            "pass-through pipeline",
-            "vs_passthrough",
-            "fs_passthrough",
-            &[],
-        );
+        let look = LookSettings::default();
+        let (pipelines, passthrough) = pipeline_parts.build(device, look);
         let mut fill = FillPass::new(device, 2 * settings.levels, &detail_resources);
         fill.set_target(device, &heights_view);
         let grids = vec![None; settings.levels as usize];
@@ -431,6 +412,7 @@ impl TerrainRenderer {
                     &detail_resources,
                 )?;
                 feed.bind(device, &heights_view);
+                feed.set_water_level(terrain.water_level_m());
                 Some(feed)
             }
             Base::Analytic(_) => None,
@@ -451,6 +433,11 @@ impl TerrainRenderer {
             bind_group,
             pipelines,
             passthrough,
+            pipeline_parts,
+            look,
+            look_resources,
+            atmosphere: Atmosphere::earth(radius_m),
+            look_time_s: 0.0,
             use_passthrough: false,
             naive_bump: false,
             fill_timestamps: None,
@@ -765,6 +752,15 @@ impl TerrainRenderer {
             bump.lambda_px = [f32::MAX, 0.0, bump.lambda_px[2], 0.0];
         }
         queue.write_buffer(&self.bump_buffer, 0, bytemuck::bytes_of(&bump));
+        self.look_resources.upload(queue, self.look.mips);
+        let look = LookUniforms::from_plan(
+            &view,
+            &self.atmosphere,
+            self.look,
+            self.terrain.water_level_m(),
+            self.look_time_s,
+        );
+        queue.write_buffer(&self.look_resources.uniforms, 0, bytemuck::bytes_of(&look));
 
         // A frame whose camera height came from coarser tiles than its own is not settled,
         // even if those tiles have arrived meanwhile.
@@ -783,6 +779,21 @@ impl TerrainRenderer {
             sky_linear: view.sky_linear,
             stream,
         }
+    }
+
+    /// What of the look is drawn.
+    pub fn look(&self) -> LookSettings {
+        self.look
+    }
+
+    /// Draws with `look` from the next frame on (rebuilds the pipelines when the compiled
+    /// parts change; the textures' mips change at the next `prepare`).
+    pub fn set_look(&mut self, device: &wgpu::Device, look: LookSettings) {
+        let compiled = |l: LookSettings| (l.textures, l.sky);
+        if compiled(look) != compiled(self.look) {
+            (self.pipelines, self.passthrough) = self.pipeline_parts.build(device, look);
+        }
+        self.look = look;
     }
 
     /// Where the frame plan's terrain questions are answered: the streamed tiles for a DEM,
@@ -854,6 +865,110 @@ impl TerrainRenderer {
             }
             pass.draw_indexed(range.clone(), 0, 0..1);
         }
+        if self.look.sky && !self.use_passthrough {
+            self.look_resources.draw_sky(pass);
+        }
+    }
+}
+
+/// What the terrain pipelines are built from, kept to rebuild them when the look changes.
+struct PipelineParts {
+    module: wgpu::ShaderModule,
+    layout: wgpu::PipelineLayout,
+    color_format: wgpu::TextureFormat,
+    detail_on: bool,
+    /// The terrain has water (its geometry rule and its shading).
+    water_on: bool,
+    form: u32,
+}
+
+impl PipelineParts {
+    /// The three terrain variants (plain, blend band, morphing levels) and the pass-through.
+    /// Pipeline constants of terrain.wgsl: code a pipeline's draws cannot need is compiled
+    /// out (a CPU rasteriser runs untaken branches), the look's parts that are off included.
+    fn build(
+        &self,
+        device: &wgpu::Device,
+        look: LookSettings,
+    ) -> ([wgpu::RenderPipeline; 3], wgpu::RenderPipeline) {
+        let flag = |on: bool| if on { 1.0 } else { 0.0 };
+        let make_pipeline = |label, vs, fs, constants: &[(&str, f64)]| {
+            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                label: Some(label),
+                layout: Some(&self.layout),
+                vertex: wgpu::VertexState {
+                    module: &self.module,
+                    entry_point: Some(vs),
+                    compilation_options: wgpu::PipelineCompilationOptions {
+                        constants,
+                        ..Default::default()
+                    },
+                    buffers: &[Some(wgpu::VertexBufferLayout {
+                        array_stride: std::mem::size_of::<RingVertex>() as u64,
+                        step_mode: wgpu::VertexStepMode::Vertex,
+                        attributes: &RING_VERTEX_ATTRIBUTES,
+                    })],
+                },
+                primitive: wgpu::PrimitiveState {
+                    topology: wgpu::PrimitiveTopology::TriangleList,
+                    front_face: wgpu::FrontFace::Ccw,
+                    cull_mode: Some(wgpu::Face::Back),
+                    ..Default::default()
+                },
+                depth_stencil: Some(wgpu::DepthStencilState {
+                    format: DEPTH_FORMAT,
+                    depth_write_enabled: Some(true),
+                    // Reversed-Z: nearer is larger.
+                    depth_compare: Some(wgpu::CompareFunction::Greater),
+                    stencil: Default::default(),
+                    bias: Default::default(),
+                }),
+                multisample: Default::default(),
+                fragment: Some(wgpu::FragmentState {
+                    module: &self.module,
+                    entry_point: Some(fs),
+                    compilation_options: wgpu::PipelineCompilationOptions {
+                        constants,
+                        ..Default::default()
+                    },
+                    targets: &[Some(wgpu::ColorTargetState {
+                        format: self.color_format,
+                        blend: None,
+                        write_mask: wgpu::ColorWrites::ALL,
+                    })],
+                }),
+                multiview_mask: None,
+                cache: None,
+            })
+        };
+        let variant = |label, morph: f64, blend: f64| {
+            make_pipeline(
+                label,
+                "vs_main",
+                "fs_main",
+                &[
+                    ("MORPH", morph),
+                    ("BLEND", blend),
+                    ("DETAIL", flag(self.detail_on)),
+                    ("TRANSFORM", self.form as f64),
+                    ("TEXTURES", flag(look.textures)),
+                    ("WATER", flag(self.water_on)),
+                    ("SKY", flag(look.sky)),
+                ],
+            )
+        };
+        let pipelines = [
+            variant("terrain pipeline", 0.0, 0.0),
+            variant("terrain pipeline (blend band)", 0.0, 1.0),
+            variant("terrain pipeline (morphing levels)", 1.0, 1.0),
+        ];
+        let passthrough = make_pipeline(
+            "pass-through pipeline",
+            "vs_passthrough",
+            "fs_passthrough",
+            &[],
+        );
+        (pipelines, passthrough)
     }
 }
 

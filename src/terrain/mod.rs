@@ -30,12 +30,36 @@ pub enum Base {
 pub struct Terrain {
     base: Base,
     detail: Option<Arc<Detail>>,
+    /// Water level, metres (`None`: no water). The surface is then max(h, level) everywhere
+    /// (geometry, reference ray caster and metric alike): the sea is a surface, not a tint.
+    water_level_m: Option<f64>,
 }
 
 impl From<Base> for Terrain {
     fn from(base: Base) -> Self {
-        Self { base, detail: None }
+        Self {
+            base,
+            detail: None,
+            water_level_m: None,
+        }
     }
+}
+
+/// The rule water adds to any height: the surface is the higher of ground and water.
+pub fn with_water(height_m: f64, water_level_m: Option<f64>) -> f64 {
+    match water_level_m {
+        Some(w) => height_m.max(w),
+        None => height_m,
+    }
+}
+
+/// [`with_water`] on a (min, max) pair: bounds of max(h, w) are the bounds of h, each raised
+/// to w.
+pub fn bounds_with_water(bounds: (f64, f64), water_level_m: Option<f64>) -> (f64, f64) {
+    (
+        with_water(bounds.0, water_level_m),
+        with_water(bounds.1, water_level_m),
+    )
 }
 
 impl Terrain {
@@ -75,15 +99,26 @@ impl Terrain {
         Self {
             base: base_only.base,
             detail,
+            water_level_m: self.water_level_m,
         }
     }
 
     /// The same base with a prepared detail.
     pub fn with_detail_of(self, detail: Option<Arc<Detail>>) -> Self {
+        Self { detail, ..self }
+    }
+
+    /// The same terrain with water at `level_m` (`None`: no water; README "The look").
+    pub fn with_water_level(self, level_m: Option<f64>) -> Self {
         Self {
-            base: self.base,
-            detail,
+            water_level_m: level_m,
+            ..self
         }
+    }
+
+    /// The water level, metres, when water is on.
+    pub fn water_level_m(&self) -> Option<f64> {
+        self.water_level_m
     }
 
     /// Pixel spacing of the base's data at the equator, metres (the analytic planet: half its
@@ -136,20 +171,21 @@ impl Terrain {
             .detail
             .as_ref()
             .map_or(0.0, |d| d.height_m(u, d.lambda_full()));
-        self.base_height_m(u) + detail
+        with_water(self.base_height_m(u) + detail, self.water_level_m)
     }
 
     /// The terrain function as geometry for a viewer above `viewer_u`: base plus the detail
     /// octaves geometry holds at that arc distance (`procedural` module docs).
     pub fn height_for_viewer_m(&self, u: DVec3, viewer_u: DVec3) -> f64 {
         let base = self.base_height_m(u);
-        match &self.detail {
+        let h = match &self.detail {
             None => base,
             Some(d) => {
                 let arc = sphere::great_circle_distance_m(u, viewer_u, 1.0);
                 base + d.height_m(u, d.lambda_at_angle(arc))
             }
-        }
+        };
+        with_water(h, self.water_level_m)
     }
 
     pub fn height_at_lat_lon_m(&self, lat_deg: f64, lon_deg: f64) -> f64 {
@@ -172,7 +208,7 @@ impl Terrain {
             Base::Dem(d) => d.height_range_m(),
         };
         let b = self.detail_bound_m();
-        (lo - b, hi + b)
+        bounds_with_water((lo - b, hi + b), self.water_level_m)
     }
 
     /// Bounds of the terrain within an arc of `angle_rad` around `u` (for culling).
@@ -185,7 +221,7 @@ impl Terrain {
             .detail
             .as_ref()
             .map_or(0.0, |d| d.bounds_near(u, angle_rad, d.lambda_full()).0);
-        (lo - b, hi + b)
+        bounds_with_water((lo - b, hi + b), self.water_level_m)
     }
 
     /// The analytic planet, when that is the source (tests use its closed-form error bounds).
@@ -201,9 +237,13 @@ impl Terrain {
             Base::Analytic(_) => "analytic test planet".to_string(),
             Base::Dem(d) => d.describe().to_string(),
         };
-        match &self.detail {
+        let detail = match &self.detail {
             Some(_) => format!("{base} + procedural detail"),
             None => base,
+        };
+        match self.water_level_m {
+            Some(w) => format!("{detail}, water at {w} m"),
+            None => detail,
         }
     }
 }

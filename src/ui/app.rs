@@ -561,7 +561,8 @@ impl ApplicationHandler for App {
             self.options.overlay_levels,
             self.options.stream,
         ) {
-            Ok(gpu) => {
+            Ok(mut gpu) => {
+                gpu.terrain.set_look(&gpu.ctx.device, self.options.look);
                 gpu.window.request_redraw();
                 self.gpu = Some(gpu);
             }

@@ -146,6 +146,7 @@ impl Gpu {
             return Err(e.to_string());
         }
         renderer.overlays = self.terrain.overlays;
+        renderer.set_look(device, self.terrain.look());
         Ok(renderer)
     }
 

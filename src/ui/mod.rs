@@ -47,6 +47,8 @@ pub struct ViewerOptions {
     pub terrain: crate::terrain::Terrain,
     /// How DEM tiles stream (cache sizes, upload budget, injected faults).
     pub stream: crate::stream::StreamSettings,
+    /// What of the look is drawn (README "The look").
+    pub look: crate::look::LookSettings,
 }
 
 impl Default for ViewerOptions {
@@ -57,6 +59,7 @@ impl Default for ViewerOptions {
             overlay_levels: false,
             terrain: crate::terrain::Terrain::analytic_earth(),
             stream: crate::stream::StreamSettings::default(),
+            look: crate::look::LookSettings::default(),
         }
     }
 }
