@@ -608,6 +608,15 @@ fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
         let half_v = normalize(to_eye + sun);
         let glint = direct * 40.0 * fresnel * pow(max(dot(nwater, half_v), 0.0), 500.0);
         colour = (1.0 - fresnel) * body + fresnel * sky + glint;
+        if TEXTURES {
+            // Sea ice toward the poles (from 77° to 80° of latitude, the edge perturbed like
+            // the land's boundaries): a surface type, not geometry (the surface stays at the
+            // water level).
+            let na = boundary_octave(look.boundary_cell0, look.boundary_frac0, wrel, footprint_m);
+            let ice = smoothstep(0.974, 0.985, abs(world_up.z) + 0.01 * na);
+            let ice_c = sample_albedo(4u, uvw, uvw_dx, uvw_dy, pw) * (ambient + direct * max(dot(up, sun), 0.0));
+            colour = mix(colour, ice_c, ice);
+        }
     } else if TEXTURES && h >= 0.0 {
         // Proto-texturing (§4.2) by height, slope and latitude, boundaries perturbed.
         let na = boundary_octave(look.boundary_cell0, look.boundary_frac0, wrel, footprint_m);

@@ -9,7 +9,8 @@
 //! | [`stream`] | tile streaming: sources (mmap, fault injection), tokio streamer, LRU cache |
 //! | [`clipmap`] | ring mesh, level texture windows, level and sector selection |
 //! | [`procedural`] | detail below the data: multifractal value noise over a 3-D integer lattice, domain warping, the data's relief, the geometry rule λ(s) |
-//! | [`terrain`] | the terrain function: base heights (the analytic test planet or the DEM pyramid) plus the procedural detail |
+//! | [`terrain`] | the terrain function: base heights (the analytic test planet or the DEM pyramid) plus the procedural detail, and water (max(h, level)) |
+//! | [`look`] | the look: surface types and their proto-textures, the atmosphere (single scattering) |
 //! | [`plan`] | one frame planned in f64 (view, clipmap levels, fills, sectors, waiting), no GPU |
 //! | [`render`] | wgpu plumbing: the plan → f32 GPU data step and the Rust ↔ WGSL contract (`gpu_data`), context, terrain pass, compute fill, offscreen target |
 //! | [`scenes`] | the named views of DESIGN.md |

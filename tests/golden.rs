@@ -1,7 +1,9 @@
 //! Golden images: small renders of every named scene over the embedded Earth, the level overlay
 //! and the error (ρ) overlay, compared with the PNGs stored in `tests/golden/`. The other
 //! rendering tests check geometry; these are the ones that notice a change of shading, colour
-//! or overlay.
+//! or overlay. Every scene twice: with the plain look (tint, one light, flat sky, no water;
+//! the images of the versions before the look, unchanged) and with the full look
+//! (`<scene>-look.png`: surface types, water, sky, detail on).
 //!
 //! Tolerance (one place, quoted in README): a pixel *differs* when any of its sRGB channels
 //! differs from the golden by more than [`CHANNEL_TOLERANCE`]; an image fails when more than
@@ -22,6 +24,7 @@ mod common;
 use std::path::{Path, PathBuf};
 
 use globe::clipmap::ClipmapSettings;
+use globe::look::LookSettings;
 use globe::render::offscreen::COLOR_FORMAT;
 use globe::render::{GpuContext, TerrainRenderer};
 use globe::scenes::Scene;
@@ -169,12 +172,22 @@ fn render(
     settings: ClipmapSettings,
     overlay: Overlay,
     detail: bool,
+    look: bool,
 ) -> Vec<u8> {
     let terrain = Terrain::embedded_earth()
         .expect("embedded Earth")
-        .with_detail(detail.then(globe::procedural::DetailParams::default));
+        .with_detail(detail.then(globe::procedural::DetailParams::default))
+        .with_water_level(look.then_some(globe::look::SEA_LEVEL_M));
     let mut r = TerrainRenderer::new(&ctx.device, settings, terrain, COLOR_FORMAT).unwrap();
     r.overlays.levels = overlay == Overlay::Levels;
+    r.set_look(
+        &ctx.device,
+        if look {
+            LookSettings::default()
+        } else {
+            LookSettings::plain()
+        },
+    );
     let camera = Scene::by_name(scene)
         .unwrap_or_else(|| panic!("no scene {scene}"))
         .camera(|lat, lon| r.terrain_height_m(lat, lon));
@@ -189,15 +202,42 @@ fn render(
 /// Renders `name` with the default mesh and compares it with `tests/golden/<name>.png` (or
 /// writes it when blessing).
 fn check(name: &str, scene: &str, overlay: Overlay) {
-    check_with(name, scene, ClipmapSettings::default(), overlay, false);
+    check_with(
+        name,
+        scene,
+        ClipmapSettings::default(),
+        overlay,
+        false,
+        false,
+    );
 }
 
-fn check_with(name: &str, scene: &str, settings: ClipmapSettings, overlay: Overlay, detail: bool) {
+/// `scene` with the full look, water and detail: `tests/golden/<scene>-look.png`.
+fn check_look(scene: &str) {
+    let name = format!("{scene}-look");
+    check_with(
+        &name,
+        scene,
+        ClipmapSettings::default(),
+        Overlay::None,
+        true,
+        true,
+    );
+}
+
+fn check_with(
+    name: &str,
+    scene: &str,
+    settings: ClipmapSettings,
+    overlay: Overlay,
+    detail: bool,
+    look: bool,
+) {
     let Some((ctx, _guard)) = common::gpu() else {
         return;
     };
     let started = std::time::Instant::now();
-    let actual = render(ctx, scene, settings, overlay, detail);
+    let actual = render(ctx, scene, settings, overlay, detail, look);
     let golden_path = golden_dir().join(format!("{name}.png"));
     if blessing() {
         std::fs::create_dir_all(golden_dir()).unwrap();
@@ -320,6 +360,7 @@ fn everest_coarse_error_overlay() {
         coarse(),
         Overlay::Error,
         false,
+        false,
     );
 }
 
@@ -333,6 +374,7 @@ fn ground_with_detail() {
         ClipmapSettings::default(),
         Overlay::None,
         true,
+        false,
     );
 }
 
@@ -344,7 +386,38 @@ fn everest_with_detail() {
         ClipmapSettings::default(),
         Overlay::None,
         true,
+        false,
     );
+}
+
+#[test]
+fn space_look() {
+    check_look("space");
+}
+
+#[test]
+fn aircraft_look() {
+    check_look("aircraft");
+}
+
+#[test]
+fn ground_look() {
+    check_look("ground");
+}
+
+#[test]
+fn north_pole_look() {
+    check_look("north-pole");
+}
+
+#[test]
+fn antimeridian_look() {
+    check_look("antimeridian");
+}
+
+#[test]
+fn everest_look() {
+    check_look("everest");
 }
 
 /// Every named scene has a golden test above (a scene added to the registry must add one).

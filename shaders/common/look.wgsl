@@ -77,8 +77,9 @@ fn chapman_column(r: f32, mu: f32, radius: f32, inv_h: f32) -> f32 {
     let big_x = x + h;
     let toward = 1.2533141 * sqrt(big_x) * erfcx(sqrt(0.5 * big_x) * abs(mu)) * exp(-h);
     let x0 = sqrt(max(1.0 - mu * mu, 0.0)) * big_x;
-    // exp(x − x0) overflows to +inf where the ray hits the planet: no light, as it should be.
-    let below = 2.0 * 1.2533141 * sqrt(x0) * exp(x - x0) - toward;
+    // A ray whose tangent point lies inside the planet (x0 < x) hits it: no light (a huge
+    // column, not exp(x − x0) overflowing into inf·0 = NaN).
+    let below = select(1e30, 2.0 * 1.2533141 * sqrt(x0) * exp(min(x - x0, 0.0)) - toward, x0 >= x);
     return select(below, toward, mu >= 0.0) / inv_h;
 }
 

@@ -176,6 +176,10 @@ pub fn chapman_column_m(r: f64, mu: f64, radius_m: f64, h_m: f64) -> f64 {
         return toward * h_m;
     }
     let x0 = (1.0 - mu * mu).max(0.0).sqrt() * big_x;
+    if x0 < x {
+        // The tangent point lies inside the planet: the ray hits it.
+        return f64::INFINITY;
+    }
     (2.0 * SQRT_HALF_PI * x0.sqrt() * (x - x0).exp() - toward) * h_m
 }
 
@@ -244,8 +248,8 @@ mod tests {
         // exp(y²)·erfc(y) at 0 is 1; for large y it tends to 1/(√π·y)·(1 − 1/(2y²) + 3/(4y⁴)).
         assert!((erfcx(0.0) - 1.0).abs() < 1e-6);
         for y in [5.0, 20.0, 60.0] {
-            let series = 1.0 / (std::f64::consts::PI.sqrt() * y)
-                * (1.0 - 0.5 / (y * y) + 0.75 / y.powi(4));
+            let series =
+                1.0 / (std::f64::consts::PI.sqrt() * y) * (1.0 - 0.5 / (y * y) + 0.75 / y.powi(4));
             assert!((erfcx(y) / series - 1.0).abs() < 1e-3, "{y}");
         }
     }

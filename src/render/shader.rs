@@ -22,7 +22,8 @@ const TRIG: &str = include_str!("../../shaders/common/trig.wgsl");
 const MAP_TRANSFORM: &str = include_str!("../../shaders/common/map_transform.wgsl");
 const NOISE: &str = include_str!("../../shaders/common/noise.wgsl");
 const DETAIL_FILL: &str = include_str!("../../shaders/common/detail_fill.wgsl");
-const LOOK: &str = include_str!("../../shaders/common/look.wgsl");
+/// The look's library (`common/look.wgsl`): the pass declares `look` itself.
+pub const LOOK: &str = include_str!("../../shaders/common/look.wgsl");
 pub const TERRAIN: &str = include_str!("../../shaders/terrain.wgsl");
 pub const FILL_ANALYTIC: &str = include_str!("../../shaders/fill_analytic.wgsl");
 pub const FILL_DEM: &str = include_str!("../../shaders/fill_dem.wgsl");
