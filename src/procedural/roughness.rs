@@ -5,12 +5,52 @@
 //!
 //! The grid's outermost rows hold their own mean, so the relief has one value at each pole.
 //! The same f32 values go to the GPU (the fill reads them with the same bilinear rule).
+//!
+//! The editor paints on this map (infinite-landscapes-projected-grid.md §3: the base shape is
+//! sketched, not only computed): a [`ReliefDab`] multiplies the relief of the cells under it,
+//! so the detail's amplitude there follows (`Detail::amplitude_for_relief_m`).
 
 use std::f64::consts::{PI, TAU};
 
 use glam::DVec3;
+use serde::{Deserialize, Serialize};
 
 use crate::geo::sphere;
+
+/// One dab of the relief brush: the cells whose centres lie within `radius_deg` (arc) of
+/// (`lat_deg`, `lon_deg`) get their relief × `factor`^w, w = (1 − (d/r)²)² (1 at the centre,
+/// fading smoothly to 0 at the edge).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ReliefDab {
+    pub lat_deg: f64,
+    pub lon_deg: f64,
+    pub radius_deg: f64,
+    /// > 1 raises the relief (rougher detail), < 1 lowers it.
+    pub factor: f64,
+}
+
+impl ReliefDab {
+    /// Allowed brush radius, degrees of arc: at least a fifth of a default cell, at most a
+    /// hemisphere's half.
+    pub const RADIUS_DEG: (f64, f64) = (0.1, 45.0);
+    /// Allowed factor per dab (0 flattens the relief; 10 is a decade per dab).
+    pub const FACTOR: (f64, f64) = (0.0, 10.0);
+
+    /// The first field outside its range: (field, value, allowed).
+    pub fn out_of_range(&self) -> Option<(&'static str, f64, String)> {
+        let checks = [
+            ("relief_paint.lat_deg", self.lat_deg, (-90.0, 90.0)),
+            ("relief_paint.lon_deg", self.lon_deg, (-360.0, 360.0)),
+            ("relief_paint.radius_deg", self.radius_deg, Self::RADIUS_DEG),
+            ("relief_paint.factor", self.factor, Self::FACTOR),
+        ];
+        checks
+            .into_iter()
+            .find(|(_, v, (lo, hi))| !(lo <= v && v <= hi))
+            .map(|(field, v, (lo, hi))| (field, v, format!("[{lo}, {hi}]")))
+    }
+}
 
 /// Relief per cell, rows north to south, columns from φ = 0 eastward.
 #[derive(Clone, Debug, PartialEq)]
@@ -147,6 +187,42 @@ impl RoughnessMap {
             }
         }
         (relief_min.min(relief), relief, slope)
+    }
+
+    /// The map with `dabs` applied in order ([`ReliefDab`]): each cell's relief times the
+    /// product of the dabs' factors there. The outermost rows are re-averaged
+    /// ([`RoughnessMap::from_values`]).
+    pub fn painted(&self, dabs: &[ReliefDab]) -> Self {
+        let mut values = self.values.clone();
+        let (cols, rows) = (self.cols as usize, self.rows as usize);
+        let dphi = TAU / self.cols as f64;
+        let dtheta = PI / self.rows as f64;
+        for dab in dabs {
+            let (phi_c, theta_c) = sphere::phi_theta_from_lat_lon_deg(dab.lat_deg, dab.lon_deg);
+            let centre = sphere::unit_vector(phi_c, theta_c);
+            let radius_rad = dab.radius_deg.to_radians();
+            let cos_radius = radius_rad.cos();
+            let ln_factor = dab.factor.max(0.0).ln();
+            let r_lo = ((theta_c - radius_rad) / dtheta - 0.5).floor().max(0.0) as usize;
+            let r_hi =
+                (((theta_c + radius_rad) / dtheta - 0.5).ceil().max(0.0) as usize).min(rows - 1);
+            for r in r_lo..=r_hi {
+                let theta = (r as f64 + 0.5) * dtheta;
+                for c in 0..cols {
+                    let u = sphere::unit_vector((c as f64 + 0.5) * dphi, theta);
+                    let cos_d = u.dot(centre);
+                    if cos_d <= cos_radius {
+                        continue;
+                    }
+                    let d = cos_d.clamp(-1.0, 1.0).acos() / radius_rad;
+                    let w = (1.0 - d * d).powi(2);
+                    let v = &mut values[r * cols + c];
+                    // factor^w (0^w = 0 for w > 0: a zero factor flattens).
+                    *v = (*v as f64 * (w * ln_factor).exp()) as f32;
+                }
+            }
+        }
+        Self::from_values(self.cols, self.rows, values, self.radius_m)
     }
 
     /// The largest relief anywhere.
