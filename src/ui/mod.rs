@@ -8,6 +8,7 @@
 //! | `input.rs` | mouse and keyboard state between events |
 //! | `controls.rs` | pure f64 camera controls (look, pan, zoom, fly), unit-tested |
 //! | `panel.rs` | the egui side panel: statistics, level table, settings, "go to"; no wgpu code |
+//! | `editor.rs` | the detail editor window: sliders, presets, load/save/reset, basis images, relief brush; no wgpu code |
 //!
 //! Controls (also listed in the panel):
 //!
@@ -26,6 +27,7 @@
 
 mod app;
 pub mod controls;
+pub mod editor;
 mod gpu;
 mod input;
 pub mod panel;
