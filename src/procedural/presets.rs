@@ -5,7 +5,7 @@
 //! | preset | what makes the name true |
 //! | --- | --- |
 //! | `default` | [`DetailParams::default`] |
-//! | `alpine` | rough (H 0.55), high amplitude (up to 2.5 km), strong height-dependent roughness (g_h 0.8): peaks rougher than valleys |
+//! | `alpine` | rough (H 0.7), high amplitude (up to 1.5 km), strong height-dependent roughness (g_h 0.7): peaks rougher than valleys |
 //! | `dunes` | smooth (H 1), little height-dependent roughness (g_h 0.05), strong warping (lever 6 cells, large c1–c3): long curved ridges |
 //! | `rolling hills` | smooth (H 0.95), low amplitude (up to 120 m), gentle |
 

@@ -30,6 +30,11 @@ use super::{UiError, ViewerOptions};
 
 /// Environment variable of the smoke check: screenshot after this many frames, then quit.
 pub const SMOKE_FRAMES_ENV: &str = "GLOBE_VIEWER_SMOKE_FRAMES";
+/// Smoke check: half way through, load this detail preset through the editor (the live path:
+/// one rebuild, the levels refill).
+pub const SMOKE_PRESET_ENV: &str = "GLOBE_VIEWER_SMOKE_PRESET";
+/// Opens the detail editor's window at start (any value).
+pub const EDITOR_ENV: &str = "GLOBE_VIEWER_EDITOR";
 
 /// Runs the viewer; `smoke_frames` (from [`SMOKE_FRAMES_ENV`] when None) ends it after a
 /// screenshot.
@@ -128,12 +133,13 @@ impl App {
             .camera(|lat, lon| terrain_height_m(&planet, lat, lon));
         controls::normalize(&mut camera, |lat, lon| terrain_height_m(&planet, lat, lon));
         let panel = Panel::new(&options.settings);
-        let editor = Editor::new(
+        let mut editor = Editor::new(
             planet
                 .detail()
                 .map(|d| d.params().clone())
                 .unwrap_or_default(),
         );
+        editor.open = std::env::var_os(EDITOR_ENV).is_some();
         Self {
             display,
             options,
@@ -318,6 +324,7 @@ impl App {
 
     /// Rebuilds the detail with `params` (same relief map, the editor's paint) and hands it to
     /// the renderer, which refills its levels on the next frame; the editor shows a refusal.
+    /// The camera stays at its height above the ground.
     fn apply_detail(&mut self, params: crate::procedural::DetailParams) {
         let Some(gpu) = self.gpu.as_mut() else {
             return;
@@ -331,7 +338,11 @@ impl App {
             .set_detail(&gpu.ctx.queue, detail.clone())
             .map_err(|e| e.to_string());
         if result.is_ok() {
+            // The camera keeps its height above the ground, which moved with the detail.
+            let (lat, lon) = (self.camera.lat_deg, self.camera.lon_deg);
+            let old_ground_m = terrain_height_m(&self.planet, lat, lon);
             self.planet = self.planet.clone().with_detail_of(Some(detail));
+            self.camera.altitude_m += terrain_height_m(&self.planet, lat, lon) - old_ground_m;
         }
         self.editor.rebuilt(result);
     }
@@ -340,6 +351,15 @@ impl App {
     fn after_frame(&mut self, event_loop: &ActiveEventLoop, actions: Vec<PanelAction>) {
         for action in actions {
             self.apply(action);
+        }
+        if let Some(limit) = self.smoke_frames
+            && self.frames == limit / 2
+            && let Ok(name) = std::env::var(SMOKE_PRESET_ENV)
+        {
+            match crate::procedural::presets::find(&name) {
+                Some(preset) => self.editor.apply_preset(preset),
+                None => eprintln!("globe viewer: no detail preset '{name}'"),
+            }
         }
         if let Some(limit) = self.smoke_frames
             && self.frames >= limit
