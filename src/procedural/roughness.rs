@@ -206,9 +206,29 @@ impl RoughnessMap {
             let r_lo = ((theta_c - radius_rad) / dtheta - 0.5).floor().max(0.0) as usize;
             let r_hi =
                 (((theta_c + radius_rad) / dtheta - 0.5).ceil().max(0.0) as usize).min(rows - 1);
+            // Columns: the cap's east–west half-width at its widest row, every column when
+            // it reaches a pole (as `bounds_near`).
+            let sin_min = (theta_c - radius_rad)
+                .sin()
+                .min((theta_c + radius_rad).sin());
+            let reaches_pole = theta_c - radius_rad <= 0.0 || theta_c + radius_rad >= PI;
+            let columns: Vec<usize> = if reaches_pole || radius_rad >= sin_min {
+                (0..cols).collect()
+            } else {
+                let half = (radius_rad / sin_min).asin() / dphi + 1.0;
+                let c0 = phi_c.rem_euclid(TAU) / dphi - 0.5;
+                let (lo, hi) = ((c0 - half).floor() as i64, (c0 + half).ceil() as i64);
+                if hi - lo + 1 >= cols as i64 {
+                    (0..cols).collect()
+                } else {
+                    (lo..=hi)
+                        .map(|c| c.rem_euclid(cols as i64) as usize)
+                        .collect()
+                }
+            };
             for r in r_lo..=r_hi {
                 let theta = (r as f64 + 0.5) * dtheta;
-                for c in 0..cols {
+                for &c in &columns {
                     let u = sphere::unit_vector((c as f64 + 0.5) * dphi, theta);
                     let cos_d = u.dot(centre);
                     if cos_d <= cos_radius {
@@ -240,4 +260,62 @@ impl RoughnessMap {
 pub fn phi_theta_of_unit(u: DVec3) -> (f64, f64) {
     let (phi, theta, _) = sphere::phi_theta_height_from_ecef_m(u, 1.0);
     (phi, theta)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The dab's column window misses no cell the brute-force scan over every column paints:
+    /// at the equator, near a pole, across the antimeridian, large and small brushes.
+    #[test]
+    fn painted_matches_a_scan_of_every_cell() {
+        let (cols, rows) = (144, 72);
+        let values: Vec<f32> = (0..cols * rows).map(|i| 100.0 + (i % 13) as f32).collect();
+        let map = RoughnessMap::from_values(cols, rows, values, 6.371e6);
+        for (lat, lon, radius) in [
+            (0.0, 0.0, 3.0),
+            (80.0, 30.0, 6.0),
+            (-60.0, 179.5, 4.0),
+            (10.0, -179.0, 40.0),
+            (89.0, 0.0, 0.5),
+        ] {
+            let dab = ReliefDab {
+                lat_deg: lat,
+                lon_deg: lon,
+                radius_deg: radius,
+                factor: 2.0,
+            };
+            let painted = map.painted(&[dab]);
+            let (phi_c, theta_c) = sphere::phi_theta_from_lat_lon_deg(lat, lon);
+            let centre = sphere::unit_vector(phi_c, theta_c);
+            let mut inside = 0;
+            // Inner rows only: the outermost rows are re-averaged by `from_values`.
+            for r in 1..rows - 1 {
+                for c in 0..cols {
+                    let u = sphere::unit_vector(
+                        (c as f64 + 0.5) * TAU / cols as f64,
+                        (r as f64 + 0.5) * PI / rows as f64,
+                    );
+                    let d = u.dot(centre).clamp(-1.0, 1.0).acos() / radius.to_radians();
+                    let i = (r * cols + c) as usize;
+                    let expected = if d < 1.0 {
+                        inside += 1;
+                        map.values[i] as f64 * 2f64.powf((1.0 - d * d).powi(2))
+                    } else {
+                        map.values[i] as f64
+                    };
+                    let got = painted.values[i] as f64;
+                    assert!(
+                        (got - expected).abs() <= 1e-4 * expected,
+                        "dab {lat},{lon} r {radius}: cell {r},{c}: {got} vs {expected}"
+                    );
+                }
+            }
+            assert!(
+                inside > 0 || radius < 1.0,
+                "dab {lat},{lon} covers no cell centre"
+            );
+        }
+    }
 }
