@@ -13,7 +13,7 @@
 //! | image | what it shows |
 //! | --- | --- |
 //! | noise | Σ_{k<N} w_k·t_k (units of σ, first N octaves, warped) over 8 first-octave cells around the view centre, grey: −bound…+bound |
-//! | amplitude | σ(u), the first octave's amplitude, over the globe (equirectangular, lon −180…180), √ scale up to `amplitude_max_m`; paint on it |
+//! | amplitude | σ(u), the first octave's amplitude, over the globe (equirectangular, lon −180…180), √ scale from its smallest to its largest value; paint on it |
 
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -112,7 +112,8 @@ pub struct Editor {
     /// Octaves the noise image sums.
     pub noise_octaves: usize,
     noise: Option<(NoiseKey, egui::TextureHandle)>,
-    amplitude: Option<(usize, egui::TextureHandle)>,
+    /// The amplitude image, the detail it was drawn for and its σ range (metres).
+    amplitude: Option<(usize, egui::TextureHandle, [f64; 2])>,
     /// Each slider's rect last frame, by field (tests drive the sliders by pointer).
     pub slider_rects: Vec<(&'static str, egui::Rect)>,
     /// The amplitude map's rect last frame.
@@ -365,18 +366,20 @@ impl Editor {
     /// The amplitude map and its brush; returns whether the brush is held.
     fn amplitude_image(&mut self, ui: &mut egui::Ui, detail: &Arc<Detail>) -> bool {
         let key = Arc::as_ptr(detail) as usize;
-        if self.amplitude.as_ref().map(|(k, _)| *k) != Some(key) {
-            let image = amplitude_image(detail);
-            self.amplitude = Some((key, texture(ui.ctx(), "detail amplitude", image)));
+        if self.amplitude.as_ref().map(|(k, _, _)| *k) != Some(key) {
+            let (image, range_m) = amplitude_image(detail);
+            let tex = texture(ui.ctx(), "detail amplitude", image);
+            self.amplitude = Some((key, tex, range_m));
         }
-        ui.label("amplitude σ (paint with the brush)")
-            .on_hover_text(
-                "the first octave's amplitude over the globe, from the data's relief; \
-             drag on the map to paint a multiplier on the relief under the brush",
-            );
-        let Some((_, tex)) = &self.amplitude else {
+        let Some((_, tex, [lo_m, hi_m])) = &self.amplitude else {
             return false;
         };
+        ui.label(format!("amplitude σ, {lo_m:.1}…{hi_m:.1} m (paint with the brush)"))
+            .on_hover_text(
+                "the first octave's amplitude over the globe (√ scale, black: the smallest, white: the largest), \
+                 from the data's relief; drag on the map to paint a multiplier on the relief \
+                 under the brush",
+            );
         let size = egui::vec2(256.0, 128.0);
         let response = ui.add(
             egui::Image::new(tex)
@@ -400,12 +403,11 @@ impl Editor {
             }
         }
         // The dabs not yet applied, as circles over the map.
-        let pending = self.params.relief_paint.len().min(
-            self.params
-                .relief_paint
-                .len()
-                .saturating_sub(self.requested.relief_paint.len()),
-        );
+        let pending = self
+            .params
+            .relief_paint
+            .len()
+            .saturating_sub(self.requested.relief_paint.len());
         let painter = ui.painter_at(response.rect);
         for dab in &self.params.relief_paint[self.params.relief_paint.len() - pending..] {
             let centre = map_point_of_lat_lon(response.rect, dab.lat_deg, dab.lon_deg);
@@ -471,27 +473,29 @@ fn unit_at(lat_deg: f64, lon_deg: f64) -> DVec3 {
     sphere::unit_vector(phi, theta)
 }
 
-/// σ over the globe, √ scale from 0 to `amplitude_max_m` (white), one sample per pixel centre.
-pub fn amplitude_image(detail: &Detail) -> egui::ColorImage {
+/// σ over the globe, one sample per pixel centre, √ scale from the smallest σ in the image
+/// (black) to the largest (white); returns the image and that range in metres.
+pub fn amplitude_image(detail: &Detail) -> (egui::ColorImage, [f64; 2]) {
     let [w, h] = AMPLITUDE_IMAGE_PX;
-    let top = detail.params().amplitude_max_m.max(1e-9);
-    let mut pixels = Vec::with_capacity(w * h);
+    let mut sigma_m = Vec::with_capacity(w * h);
     for y in 0..h {
         let lat = 90.0 - 180.0 * (y as f64 + 0.5) / h as f64;
         for x in 0..w {
             let lon = 360.0 * (x as f64 + 0.5) / w as f64 - 180.0;
-            let v = (detail.amplitude_m(unit_at(lat, lon)) / top)
-                .clamp(0.0, 1.0)
-                .sqrt();
-            let g = (255.0 * v) as u8;
-            pixels.push(Color32::from_rgb(
-                g,
-                (0.85 * g as f64) as u8,
-                (0.6 * g as f64) as u8,
-            ));
+            sigma_m.push(detail.amplitude_m(unit_at(lat, lon)));
         }
     }
-    egui::ColorImage::new([w, h], pixels)
+    let lo = sigma_m.iter().copied().fold(f64::INFINITY, f64::min);
+    let hi = sigma_m.iter().copied().fold(0.0, f64::max);
+    let pixels = sigma_m
+        .iter()
+        .map(|s| {
+            let v = ((s - lo) / (hi - lo).max(1e-9)).clamp(0.0, 1.0).sqrt();
+            let g = 255.0 * v;
+            Color32::from_rgb(g as u8, (0.85 * g) as u8, (0.6 * g) as u8)
+        })
+        .collect();
+    (egui::ColorImage::new([w, h], pixels), [lo, hi])
 }
 
 /// Σ_{k<octaves} w_k·t_k over a square `width_m` wide around (lat, lon) in the local east/north
