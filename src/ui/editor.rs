@@ -163,8 +163,11 @@ impl Editor {
     pub fn show(&mut self, ctx: &egui::Context, view: &EditorView<'_>) -> Option<DetailParams> {
         let mut open = self.open;
         let mut busy = false;
+        // Right of the screen, clear of the side panel on the left.
+        let right = ctx.content_rect().right();
         egui::Window::new("Detail editor")
             .open(&mut open)
+            .default_pos([(right - 340.0).max(0.0), 8.0])
             .default_width(300.0)
             .default_height(960.0)
             .vscroll(true)
