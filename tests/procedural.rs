@@ -673,6 +673,13 @@ fn detail_files_round_trip_and_default_missing_fields() {
             c3: [-0.5, 0.6],
             lever_cells: 3.0,
         },
+        // The editor's paint round-trips too.
+        relief_paint: vec![globe::procedural::ReliefDab {
+            lat_deg: 45.5,
+            lon_deg: -120.25,
+            radius_deg: 2.0,
+            factor: 0.5,
+        }],
     };
     params.validate("test").unwrap();
     let path = dir.path().join("saved.json");

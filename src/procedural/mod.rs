@@ -30,6 +30,7 @@
 //! vertex spacings, so the ring mesh neither aliases nor loses it.
 
 pub mod noise;
+pub mod presets;
 pub mod roughness;
 pub mod warp;
 
@@ -38,7 +39,7 @@ use std::path::{Path, PathBuf};
 use glam::{DMat3, DQuat, DVec3};
 use serde::{Deserialize, Serialize};
 
-pub use roughness::RoughnessMap;
+pub use roughness::{ReliefDab, RoughnessMap};
 pub use warp::WarpParams;
 
 /// Octaves at most (the GPU's per-job table); a floor that would need more is raised.
@@ -46,34 +47,38 @@ pub const MAX_OCTAVES: usize = 32;
 /// Octaves a clipmap level can hold with a weight between 0 and 1 (one RGBA texel).
 pub const MAX_PARTIAL: usize = 4;
 
-/// The detail's parameters, as saved in a detail file (JSON). Every field has a default.
+/// The detail's parameters, as saved in a detail file (JSON). Every field has a default; the
+/// allowed ranges are in [`PARAM_RANGES`].
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct DetailParams {
     /// Seed of the lattice hash: another seed, another planet surface.
     pub seed: u32,
-    /// H of eq. 1, in [0.05, 1]: amplitudes fall by r^−H per octave (1: smooth, 0: rough).
+    /// H of eq. 1: amplitudes fall by r^−H per octave (1: smooth, 0: rough).
     pub hurst: f64,
-    /// r of eq. 1, in [1.4, 4]: cells shrink by r per octave.
+    /// r of eq. 1: cells shrink by r per octave.
     pub lacunarity: f64,
-    /// Smallest cell, metres (default 1 cm); at least 1 mm.
+    /// Smallest cell, metres (default 1 cm).
     pub floor_m: f64,
-    /// How many octaves below the data's pixel spacing the first octave's cell lies, [0, 4].
+    /// How many octaves below the data's pixel spacing the first octave's cell lies.
     pub octaves_below_data: f64,
     /// First octave's amplitude where the data is flat, metres.
     pub amplitude_min_m: f64,
     /// First octave's amplitude per metre of the data's local relief, continued from the
-    /// relief map's cell to the first octave's by (L_0/cell)^H, [0, 10].
+    /// relief map's cell to the first octave's by (L_0/cell)^H.
     pub roughness_gain: f64,
     /// Cap on the first octave's amplitude, metres.
     pub amplitude_max_m: f64,
-    /// g_h: how much the height so far roughens (peaks) or smooths (valleys) the next octave,
-    /// [0, 0.95].
+    /// g_h: how much the height so far roughens (peaks) or smooths (valleys) the next octave.
     pub height_roughness: f64,
     /// κ: geometry holds octaves whose cells are at least κ × the arc distance from the
-    /// viewer; finer ones are shading. (0, 4].
+    /// viewer; finer ones are shading.
     pub geometry_cut: f64,
     pub warp: WarpParams,
+    /// The editor's paint on the relief map, applied in order ([`ReliefDab`]); absent from a
+    /// file that has none.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub relief_paint: Vec<ReliefDab>,
 }
 
 impl Default for DetailParams {
@@ -90,6 +95,7 @@ impl Default for DetailParams {
             height_roughness: 0.3,
             geometry_cut: 0.125,
             warp: WarpParams::default(),
+            relief_paint: Vec::new(),
         }
     }
 }
@@ -115,81 +121,206 @@ pub enum DetailError {
         origin: String,
         field: &'static str,
         value: f64,
-        allowed: &'static str,
+        allowed: String,
     },
 }
 
+/// One field's allowed range: what [`DetailParams::validate`] enforces and what the editor's
+/// sliders offer (one table, so the two cannot disagree). The seed has no entry: every u32 is
+/// a valid seed.
+#[derive(Clone, Copy)]
+pub struct ParamRange {
+    /// The field's name in the detail file (`warp.c1[0]`: the first component of `c1`).
+    pub field: &'static str,
+    pub min: f64,
+    pub max: f64,
+    /// What the field does (the field's doc comment, shown as the slider's hover text).
+    pub help: &'static str,
+    pub get: fn(&DetailParams) -> f64,
+    pub get_mut: fn(&mut DetailParams) -> &mut f64,
+}
+
+impl ParamRange {
+    /// Whether `value` is allowed (false for NaN).
+    pub fn contains(&self, value: f64) -> bool {
+        self.min <= value && value <= self.max
+    }
+
+    /// The range as error messages show it: `[0.05, 1]`, `[0.001, 1e6]`.
+    pub fn allowed(&self) -> String {
+        let bound = |v: f64| {
+            if v.abs() >= 1e5 {
+                format!("{v:e}")
+            } else {
+                format!("{v}")
+            }
+        };
+        format!("[{}, {}]", bound(self.min), bound(self.max))
+    }
+}
+
+impl std::fmt::Debug for ParamRange {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{} in {}", self.field, self.allowed())
+    }
+}
+
+/// |c| of each warping vector's components at most (the paper's values are below 0.4; larger
+/// ones only fold the domain onto itself).
+const WARP_C_MAX: f64 = 100.0;
+
+/// Every ranged field of [`DetailParams`], in the order the editor shows them.
+pub const PARAM_RANGES: [ParamRange; 16] = [
+    ParamRange {
+        field: "hurst",
+        min: 0.05,
+        max: 1.0,
+        help: "H of eq. 1: amplitudes fall by r^−H per octave (1: smooth, 0: rough)",
+        get: |p| p.hurst,
+        get_mut: |p| &mut p.hurst,
+    },
+    ParamRange {
+        field: "lacunarity",
+        min: 1.4,
+        max: 4.0,
+        help: "r of eq. 1: cells shrink by r per octave",
+        get: |p| p.lacunarity,
+        get_mut: |p| &mut p.lacunarity,
+    },
+    ParamRange {
+        field: "floor_m",
+        min: 0.001,
+        max: 1e6,
+        help: "smallest cell, metres: no octave is finer",
+        get: |p| p.floor_m,
+        get_mut: |p| &mut p.floor_m,
+    },
+    ParamRange {
+        field: "octaves_below_data",
+        min: 0.0,
+        max: 4.0,
+        help: "how many octaves below the data's pixel spacing the first octave's cell lies",
+        get: |p| p.octaves_below_data,
+        get_mut: |p| &mut p.octaves_below_data,
+    },
+    ParamRange {
+        field: "amplitude_min_m",
+        min: 0.0,
+        max: 1e4,
+        help: "first octave's amplitude where the data is flat, metres",
+        get: |p| p.amplitude_min_m,
+        get_mut: |p| &mut p.amplitude_min_m,
+    },
+    ParamRange {
+        field: "roughness_gain",
+        min: 0.0,
+        max: 10.0,
+        help: "first octave's amplitude per metre of the data's local relief",
+        get: |p| p.roughness_gain,
+        get_mut: |p| &mut p.roughness_gain,
+    },
+    ParamRange {
+        field: "amplitude_max_m",
+        min: 0.0,
+        max: 1e4,
+        help: "cap on the first octave's amplitude, metres",
+        get: |p| p.amplitude_max_m,
+        get_mut: |p| &mut p.amplitude_max_m,
+    },
+    ParamRange {
+        field: "height_roughness",
+        min: 0.0,
+        max: 0.95,
+        help: "g_h: how much the height so far roughens (peaks) or smooths (valleys) the next octave",
+        get: |p| p.height_roughness,
+        get_mut: |p| &mut p.height_roughness,
+    },
+    ParamRange {
+        field: "geometry_cut",
+        min: 1e-3,
+        max: 4.0,
+        help: "κ: geometry holds octaves whose cells are at least κ × the distance from the viewer; finer ones are shading",
+        get: |p| p.geometry_cut,
+        get_mut: |p| &mut p.geometry_cut,
+    },
+    ParamRange {
+        field: "warp.lever_cells",
+        min: 0.0,
+        max: 64.0,
+        help: "warping lever |x| in cells: how far the rotation moves a point (0: no warping)",
+        get: |p| p.warp.lever_cells,
+        get_mut: |p| &mut p.warp.lever_cells,
+    },
+    ParamRange {
+        field: "warp.c1[0]",
+        min: -WARP_C_MAX,
+        max: WARP_C_MAX,
+        help: "c1 (x): rotation of the warp per unit of roughness",
+        get: |p| p.warp.c1[0],
+        get_mut: |p| &mut p.warp.c1[0],
+    },
+    ParamRange {
+        field: "warp.c1[1]",
+        min: -WARP_C_MAX,
+        max: WARP_C_MAX,
+        help: "c1 (y): rotation of the warp per unit of roughness",
+        get: |p| p.warp.c1[1],
+        get_mut: |p| &mut p.warp.c1[1],
+    },
+    ParamRange {
+        field: "warp.c2[0]",
+        min: -WARP_C_MAX,
+        max: WARP_C_MAX,
+        help: "c2 (x): constant rotation of the warp per octave",
+        get: |p| p.warp.c2[0],
+        get_mut: |p| &mut p.warp.c2[0],
+    },
+    ParamRange {
+        field: "warp.c2[1]",
+        min: -WARP_C_MAX,
+        max: WARP_C_MAX,
+        help: "c2 (y): constant rotation of the warp per octave",
+        get: |p| p.warp.c2[1],
+        get_mut: |p| &mut p.warp.c2[1],
+    },
+    ParamRange {
+        field: "warp.c3[0]",
+        min: -WARP_C_MAX,
+        max: WARP_C_MAX,
+        help: "c3 (x): translation of each octave's lattice, in cells times r·H",
+        get: |p| p.warp.c3[0],
+        get_mut: |p| &mut p.warp.c3[0],
+    },
+    ParamRange {
+        field: "warp.c3[1]",
+        min: -WARP_C_MAX,
+        max: WARP_C_MAX,
+        help: "c3 (y): translation of each octave's lattice, in cells times r·H",
+        get: |p| p.warp.c3[1],
+        get_mut: |p| &mut p.warp.c3[1],
+    },
+];
+
 impl DetailParams {
-    /// Checks every field against its allowed range (`origin` names the file in errors).
+    /// Checks every field against its allowed range in [`PARAM_RANGES`] (`origin` names the
+    /// file in errors).
     pub fn validate(&self, origin: &str) -> Result<(), DetailError> {
-        let checks: [(&'static str, f64, f64, f64, &'static str); 13] = [
-            ("hurst", self.hurst, 0.05, 1.0, "[0.05, 1]"),
-            ("lacunarity", self.lacunarity, 1.4, 4.0, "[1.4, 4]"),
-            ("floor_m", self.floor_m, 0.001, 1e6, "[0.001, 1e6]"),
-            (
-                "octaves_below_data",
-                self.octaves_below_data,
-                0.0,
-                4.0,
-                "[0, 4]",
-            ),
-            (
-                "amplitude_min_m",
-                self.amplitude_min_m,
-                0.0,
-                1e4,
-                "[0, 10000]",
-            ),
-            ("roughness_gain", self.roughness_gain, 0.0, 10.0, "[0, 10]"),
-            (
-                "amplitude_max_m",
-                self.amplitude_max_m,
-                0.0,
-                1e4,
-                "[0, 10000]",
-            ),
-            (
-                "height_roughness",
-                self.height_roughness,
-                0.0,
-                0.95,
-                "[0, 0.95]",
-            ),
-            ("geometry_cut", self.geometry_cut, 1e-3, 4.0, "[0.001, 4]"),
-            (
-                "warp.lever_cells",
-                self.warp.lever_cells,
-                0.0,
-                64.0,
-                "[0, 64]",
-            ),
-            (
-                "warp.c1",
-                self.warp.c1[0].abs().max(self.warp.c1[1].abs()),
-                0.0,
-                100.0,
-                "|c| ≤ 100",
-            ),
-            (
-                "warp.c2",
-                self.warp.c2[0].abs().max(self.warp.c2[1].abs()),
-                0.0,
-                100.0,
-                "|c| ≤ 100",
-            ),
-            (
-                "warp.c3",
-                self.warp.c3[0].abs().max(self.warp.c3[1].abs()),
-                0.0,
-                100.0,
-                "|c| ≤ 100",
-            ),
-        ];
-        for (field, value, lo, hi, allowed) in checks {
-            // `!(a <= v)` also catches NaN.
-            if !(lo <= value && value <= hi) {
+        for range in &PARAM_RANGES {
+            let value = (range.get)(self);
+            // `contains` is false for NaN too.
+            if !range.contains(value) {
                 return Err(DetailError::Range {
                     origin: origin.to_string(),
+                    field: range.field,
+                    value,
+                    allowed: range.allowed(),
+                });
+            }
+        }
+        for (i, dab) in self.relief_paint.iter().enumerate() {
+            if let Some((field, value, allowed)) = dab.out_of_range() {
+                return Err(DetailError::Range {
+                    origin: format!("{origin} (relief_paint[{i}])"),
                     field,
                     value,
                     allowed,
@@ -205,7 +336,12 @@ impl DetailParams {
             path: path.to_path_buf(),
             cause,
         })?;
-        let params: Self = serde_json::from_str(&text).map_err(|e| DetailError::Parse {
+        Self::parse(&text, path)
+    }
+
+    /// Parses and validates the text of a detail file (`path` names it in errors).
+    pub fn parse(text: &str, path: &Path) -> Result<Self, DetailError> {
+        let params: Self = serde_json::from_str(text).map_err(|e| DetailError::Parse {
             path: path.to_path_buf(),
             message: e.to_string(),
         })?;
@@ -296,13 +432,19 @@ pub struct Detail {
     params: DetailParams,
     radius_m: f64,
     octaves: Vec<Octave>,
+    /// The relief map with the parameters' paint applied.
     roughness: RoughnessMap,
+    /// The relief map before the paint (None: no paint, it is `roughness`).
+    unpainted: Option<RoughnessMap>,
     /// (L_0 / relief cell)^H: relief at the map's scale continued to the first octave's.
     relief_scale: f64,
+    /// The data's pixel spacing, metres (as given to [`Detail::new`]).
+    data_spacing_m: f64,
 }
 
 impl Detail {
-    /// The detail below data of pixel spacing `data_spacing_m` with relief `roughness`.
+    /// The detail below data of pixel spacing `data_spacing_m` with relief `roughness` (before
+    /// the parameters' `relief_paint`, which is applied here).
     pub fn new(
         params: DetailParams,
         radius_m: f64,
@@ -339,12 +481,19 @@ impl Detail {
             .collect();
         let relief_cell_m = 1.5 * roughness.cell_m();
         let relief_scale = (first_cell_m / relief_cell_m).min(1.0).powf(params.hurst);
+        let (roughness, unpainted) = if params.relief_paint.is_empty() {
+            (roughness, None)
+        } else {
+            (roughness.painted(&params.relief_paint), Some(roughness))
+        };
         Self {
             params,
             radius_m,
             octaves,
             roughness,
+            unpainted,
             relief_scale,
+            data_spacing_m,
         }
     }
 
@@ -356,8 +505,33 @@ impl Detail {
         &self.octaves
     }
 
+    /// The relief map the detail uses (painted).
     pub fn roughness(&self) -> &RoughnessMap {
         &self.roughness
+    }
+
+    /// The relief map before the paint: what [`Detail::new`] was given.
+    pub fn unpainted_roughness(&self) -> &RoughnessMap {
+        self.unpainted.as_ref().unwrap_or(&self.roughness)
+    }
+
+    /// The same detail with other parameters (same radius, data spacing and unpainted relief):
+    /// what the editor rebuilds on every change. Cheap next to building the relief map (an
+    /// octave table and, with paint, one pass over the map per dab).
+    pub fn with_params(&self, params: DetailParams) -> Self {
+        let data_spacing_m = self.data_spacing_m();
+        Self::new(
+            params,
+            self.radius_m,
+            data_spacing_m,
+            self.unpainted_roughness().clone(),
+        )
+    }
+
+    /// The data's pixel spacing, metres: the first octave's cell is it over r^(octaves below
+    /// data).
+    pub fn data_spacing_m(&self) -> f64 {
+        self.data_spacing_m
     }
 
     pub fn radius_m(&self) -> f64 {
@@ -579,7 +753,8 @@ impl Detail {
                 origin: format!("with blend_fraction {blend_fraction}"),
                 field: "lacunarity",
                 value: self.params.lacunarity,
-                allowed: "≥ 2^((1 + blend_fraction)/3) (a level holds at most 4 partial octaves)",
+                allowed: "≥ 2^((1 + blend_fraction)/3) (a level holds at most 4 partial octaves)"
+                    .to_string(),
             });
         }
         Ok(())
@@ -705,4 +880,143 @@ pub fn detail_texel_f32(
 
 fn unit(h: u32) -> f64 {
     h as f64 / 4_294_967_296.0
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `validate` enforces exactly the table: each range's ends are accepted, a value just
+    /// outside either end (and NaN) is refused naming that field and the table's range.
+    #[test]
+    fn ranges_table_is_what_validate_enforces() {
+        for range in &PARAM_RANGES {
+            for end in [range.min, range.max] {
+                let mut p = DetailParams::default();
+                *(range.get_mut)(&mut p) = end;
+                assert_eq!((range.get)(&p), end, "{range:?}");
+                p.validate("test")
+                    .unwrap_or_else(|e| panic!("{range:?}: end {end} refused: {e}"));
+            }
+            let step = |v: f64| 1e-9 * v.abs().max(1.0);
+            for outside in [
+                range.min - step(range.min),
+                range.max + step(range.max),
+                f64::NAN,
+            ] {
+                let mut p = DetailParams::default();
+                *(range.get_mut)(&mut p) = outside;
+                match p.validate("test") {
+                    Err(DetailError::Range { field, allowed, .. }) => {
+                        assert_eq!(field, range.field);
+                        assert_eq!(allowed, range.allowed());
+                    }
+                    other => panic!("{range:?}: {outside} gave {other:?}"),
+                }
+            }
+        }
+        // Every field of the file but the seed has an entry (warp vectors per component).
+        let names: Vec<_> = PARAM_RANGES.iter().map(|r| r.field).collect();
+        let json = serde_json::to_value(DetailParams::default()).unwrap();
+        for (key, value) in json.as_object().unwrap() {
+            match value {
+                serde_json::Value::Object(warp) => {
+                    for (k, v) in warp {
+                        let n = v.as_array().map_or(1, |a| a.len());
+                        for i in 0..n {
+                            let name = if v.is_array() {
+                                format!("{key}.{k}[{i}]")
+                            } else {
+                                format!("{key}.{k}")
+                            };
+                            assert!(names.contains(&name.as_str()), "{name} has no range");
+                        }
+                    }
+                }
+                _ if key == "seed" => {}
+                _ => assert!(names.contains(&key.as_str()), "{key} has no range"),
+            }
+        }
+        assert_eq!(PARAM_RANGES[0].allowed(), "[0.05, 1]");
+        assert_eq!(PARAM_RANGES[2].allowed(), "[0.001, 1e6]");
+    }
+
+    fn flat_relief(relief_m: f32) -> RoughnessMap {
+        let (cols, rows) = (72, 36);
+        let values = vec![relief_m; (cols * rows) as usize];
+        RoughnessMap::from_values(cols, rows, values, crate::geo::EARTH_RADIUS_M)
+    }
+
+    fn unit_at(lat_deg: f64, lon_deg: f64) -> DVec3 {
+        let (phi, theta) = crate::geo::sphere::phi_theta_from_lat_lon_deg(lat_deg, lon_deg);
+        crate::geo::sphere::unit_vector(phi, theta)
+    }
+
+    /// A dab raises the amplitude under it by its factor (where σ is not capped) and leaves
+    /// a far cell alone; the unpainted map is kept for the next rebuild.
+    #[test]
+    fn painting_changes_the_amplitude_under_the_brush_only() {
+        let params = DetailParams::default();
+        let plain = Detail::new(params.clone(), 6.371e6, 1000.0, flat_relief(10_000.0));
+        let dab = ReliefDab {
+            lat_deg: 47.5,
+            lon_deg: 12.5,
+            radius_deg: 5.0,
+            factor: 3.0,
+        };
+        let painted = plain.with_params(DetailParams {
+            relief_paint: vec![dab],
+            ..params.clone()
+        });
+        // At a cell centre under the dab's centre (cells of 5°: centres at 2.5 + 5k).
+        let (here, far) = (unit_at(47.5, 12.5), unit_at(-42.5, -167.5));
+        let relief_here = painted.roughness().relief_at_m(here);
+        assert!(
+            (relief_here - 30_000.0).abs() < 1e-2,
+            "relief {relief_here}"
+        );
+        // σ = a_min + gain·relief·scale: the relief's share triples.
+        let a_min = params.amplitude_min_m;
+        let (before, after) = (plain.amplitude_m(here), painted.amplitude_m(here));
+        assert!(before > a_min + 1.0, "σ {before}");
+        assert!(
+            ((after - a_min) / (before - a_min) - 3.0).abs() < 1e-5,
+            "σ {before} → {after}"
+        );
+        assert_eq!(painted.amplitude_m(far), plain.amplitude_m(far));
+        assert_eq!(painted.roughness().relief_at_m(far), 10_000.0);
+        assert_eq!(painted.unpainted_roughness(), plain.roughness());
+        // Lowering by the inverse factor brings the centre back.
+        let undone = plain.with_params(DetailParams {
+            relief_paint: vec![
+                dab,
+                ReliefDab {
+                    factor: 1.0 / 3.0,
+                    ..dab
+                },
+            ],
+            ..params
+        });
+        let back = undone.roughness().relief_at_m(here);
+        assert!((back - 10_000.0).abs() < 1e-2, "{back}");
+    }
+
+    /// A dab out of range is refused with its index and field.
+    #[test]
+    fn bad_dab_is_refused() {
+        let p = DetailParams {
+            relief_paint: vec![ReliefDab {
+                lat_deg: 0.0,
+                lon_deg: 0.0,
+                radius_deg: 0.0,
+                factor: 2.0,
+            }],
+            ..Default::default()
+        };
+        let e = p.validate("f.json").unwrap_err().to_string();
+        assert!(
+            e.contains("relief_paint[0]") && e.contains("radius_deg"),
+            "{e}"
+        );
+    }
 }

@@ -5,12 +5,52 @@
 //!
 //! The grid's outermost rows hold their own mean, so the relief has one value at each pole.
 //! The same f32 values go to the GPU (the fill reads them with the same bilinear rule).
+//!
+//! The editor paints on this map (infinite-landscapes-projected-grid.md §3: the base shape is
+//! sketched, not only computed): a [`ReliefDab`] multiplies the relief of the cells under it,
+//! so the detail's amplitude there follows (`Detail::amplitude_for_relief_m`).
 
 use std::f64::consts::{PI, TAU};
 
 use glam::DVec3;
+use serde::{Deserialize, Serialize};
 
 use crate::geo::sphere;
+
+/// One dab of the relief brush: the cells whose centres lie within `radius_deg` (arc) of
+/// (`lat_deg`, `lon_deg`) get their relief × `factor`^w, w = (1 − (d/r)²)² (1 at the centre,
+/// fading smoothly to 0 at the edge).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ReliefDab {
+    pub lat_deg: f64,
+    pub lon_deg: f64,
+    pub radius_deg: f64,
+    /// > 1 raises the relief (rougher detail), < 1 lowers it.
+    pub factor: f64,
+}
+
+impl ReliefDab {
+    /// Allowed brush radius, degrees of arc: at least a fifth of a default cell, at most a
+    /// hemisphere's half.
+    pub const RADIUS_DEG: (f64, f64) = (0.1, 45.0);
+    /// Allowed factor per dab (0 flattens the relief; 10 is a decade per dab).
+    pub const FACTOR: (f64, f64) = (0.0, 10.0);
+
+    /// The first field outside its range: (field, value, allowed).
+    pub fn out_of_range(&self) -> Option<(&'static str, f64, String)> {
+        let checks = [
+            ("relief_paint.lat_deg", self.lat_deg, (-90.0, 90.0)),
+            ("relief_paint.lon_deg", self.lon_deg, (-360.0, 360.0)),
+            ("relief_paint.radius_deg", self.radius_deg, Self::RADIUS_DEG),
+            ("relief_paint.factor", self.factor, Self::FACTOR),
+        ];
+        checks
+            .into_iter()
+            .find(|(_, v, (lo, hi))| !(lo <= v && v <= hi))
+            .map(|(field, v, (lo, hi))| (field, v, format!("[{lo}, {hi}]")))
+    }
+}
 
 /// Relief per cell, rows north to south, columns from φ = 0 eastward.
 #[derive(Clone, Debug, PartialEq)]
@@ -149,6 +189,62 @@ impl RoughnessMap {
         (relief_min.min(relief), relief, slope)
     }
 
+    /// The map with `dabs` applied in order ([`ReliefDab`]): each cell's relief times the
+    /// product of the dabs' factors there. The outermost rows are re-averaged
+    /// ([`RoughnessMap::from_values`]).
+    pub fn painted(&self, dabs: &[ReliefDab]) -> Self {
+        let mut values = self.values.clone();
+        let (cols, rows) = (self.cols as usize, self.rows as usize);
+        let dphi = TAU / self.cols as f64;
+        let dtheta = PI / self.rows as f64;
+        for dab in dabs {
+            let (phi_c, theta_c) = sphere::phi_theta_from_lat_lon_deg(dab.lat_deg, dab.lon_deg);
+            let centre = sphere::unit_vector(phi_c, theta_c);
+            let radius_rad = dab.radius_deg.to_radians();
+            let cos_radius = radius_rad.cos();
+            let ln_factor = dab.factor.max(0.0).ln();
+            let r_lo = ((theta_c - radius_rad) / dtheta - 0.5).floor().max(0.0) as usize;
+            let r_hi =
+                (((theta_c + radius_rad) / dtheta - 0.5).ceil().max(0.0) as usize).min(rows - 1);
+            // Columns: the cap's east–west half-width at its widest row, every column when
+            // it reaches a pole (as `bounds_near`).
+            let sin_min = (theta_c - radius_rad)
+                .sin()
+                .min((theta_c + radius_rad).sin());
+            let reaches_pole = theta_c - radius_rad <= 0.0 || theta_c + radius_rad >= PI;
+            let columns: Vec<usize> = if reaches_pole || radius_rad >= sin_min {
+                (0..cols).collect()
+            } else {
+                let half = (radius_rad / sin_min).asin() / dphi + 1.0;
+                let c0 = phi_c.rem_euclid(TAU) / dphi - 0.5;
+                let (lo, hi) = ((c0 - half).floor() as i64, (c0 + half).ceil() as i64);
+                if hi - lo + 1 >= cols as i64 {
+                    (0..cols).collect()
+                } else {
+                    (lo..=hi)
+                        .map(|c| c.rem_euclid(cols as i64) as usize)
+                        .collect()
+                }
+            };
+            for r in r_lo..=r_hi {
+                let theta = (r as f64 + 0.5) * dtheta;
+                for &c in &columns {
+                    let u = sphere::unit_vector((c as f64 + 0.5) * dphi, theta);
+                    let cos_d = u.dot(centre);
+                    if cos_d <= cos_radius {
+                        continue;
+                    }
+                    let d = cos_d.clamp(-1.0, 1.0).acos() / radius_rad;
+                    let w = (1.0 - d * d).powi(2);
+                    let v = &mut values[r * cols + c];
+                    // factor^w (0^w = 0 for w > 0: a zero factor flattens).
+                    *v = (*v as f64 * (w * ln_factor).exp()) as f32;
+                }
+            }
+        }
+        Self::from_values(self.cols, self.rows, values, self.radius_m)
+    }
+
     /// The largest relief anywhere.
     pub fn max_relief_m(&self) -> f64 {
         self.values.iter().copied().fold(0f32, f32::max) as f64
@@ -164,4 +260,62 @@ impl RoughnessMap {
 pub fn phi_theta_of_unit(u: DVec3) -> (f64, f64) {
     let (phi, theta, _) = sphere::phi_theta_height_from_ecef_m(u, 1.0);
     (phi, theta)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The dab's column window misses no cell the brute-force scan over every column paints:
+    /// at the equator, near a pole, across the antimeridian, large and small brushes.
+    #[test]
+    fn painted_matches_a_scan_of_every_cell() {
+        let (cols, rows) = (144, 72);
+        let values: Vec<f32> = (0..cols * rows).map(|i| 100.0 + (i % 13) as f32).collect();
+        let map = RoughnessMap::from_values(cols, rows, values, 6.371e6);
+        for (lat, lon, radius) in [
+            (0.0, 0.0, 3.0),
+            (80.0, 30.0, 6.0),
+            (-60.0, 179.5, 4.0),
+            (10.0, -179.0, 40.0),
+            (89.0, 0.0, 0.5),
+        ] {
+            let dab = ReliefDab {
+                lat_deg: lat,
+                lon_deg: lon,
+                radius_deg: radius,
+                factor: 2.0,
+            };
+            let painted = map.painted(&[dab]);
+            let (phi_c, theta_c) = sphere::phi_theta_from_lat_lon_deg(lat, lon);
+            let centre = sphere::unit_vector(phi_c, theta_c);
+            let mut inside = 0;
+            // Inner rows only: the outermost rows are re-averaged by `from_values`.
+            for r in 1..rows - 1 {
+                for c in 0..cols {
+                    let u = sphere::unit_vector(
+                        (c as f64 + 0.5) * TAU / cols as f64,
+                        (r as f64 + 0.5) * PI / rows as f64,
+                    );
+                    let d = u.dot(centre).clamp(-1.0, 1.0).acos() / radius.to_radians();
+                    let i = (r * cols + c) as usize;
+                    let expected = if d < 1.0 {
+                        inside += 1;
+                        map.values[i] as f64 * 2f64.powf((1.0 - d * d).powi(2))
+                    } else {
+                        map.values[i] as f64
+                    };
+                    let got = painted.values[i] as f64;
+                    assert!(
+                        (got - expected).abs() <= 1e-4 * expected,
+                        "dab {lat},{lon} r {radius}: cell {r},{c}: {got} vs {expected}"
+                    );
+                }
+            }
+            assert!(
+                inside > 0 || radius < 1.0,
+                "dab {lat},{lon} covers no cell centre"
+            );
+        }
+    }
 }

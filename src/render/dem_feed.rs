@@ -90,6 +90,11 @@ const CAMERA_PRIORITY: Priority = 0;
 const BOUNDS_PRIORITY: Priority = 1 << 62;
 
 impl DemFeed {
+    /// The detail the camera's ground and the bounds add (the editor replaces it).
+    pub fn set_detail(&mut self, detail: Option<Arc<Detail>>) {
+        self.detail = detail;
+    }
+
     pub fn new(
         device: &wgpu::Device,
         dem: DemTerrain,

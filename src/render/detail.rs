@@ -45,7 +45,8 @@ impl DetailResources {
         let relief = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("relief map"),
             contents: bytemuck::cast_slice(&values),
-            usage: wgpu::BufferUsages::STORAGE,
+            // COPY_DST: the editor repaints it (`DetailResources::replace_detail`).
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
         });
         let _ = (cols, rows);
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -82,6 +83,20 @@ impl DetailResources {
             relief,
             bind_group: None,
         }
+    }
+
+    /// Replaces the detail (the editor's change) and uploads its relief map; the next fills
+    /// use it. Refused (returns false, nothing changed) without a detail before or when the new
+    /// relief map has another size than the buffer.
+    pub fn replace_detail(&mut self, queue: &wgpu::Queue, detail: Arc<Detail>) -> bool {
+        let values = &detail.roughness().values;
+        let fits = std::mem::size_of_val(values.as_slice()) as u64 == self.relief.size();
+        if self.detail.is_none() || !fits {
+            return false;
+        }
+        queue.write_buffer(&self.relief, 0, bytemuck::cast_slice(values));
+        self.detail = Some(detail);
+        true
     }
 
     /// The fills' group-1 layout.

@@ -453,6 +453,30 @@ impl TerrainRenderer {
         })
     }
 
+    /// Replaces the procedural detail (the editor's change: same relief map size, other
+    /// parameters or paint) without rebuilding anything: uploads the relief map and forgets
+    /// every level's window, so the next [`TerrainRenderer::prepare`] refills every level
+    /// once, as on the first frame. Refused when the renderer was built without detail (its
+    /// pipelines leave the detail out) or the detail does not fit the clipmap settings.
+    pub fn set_detail(
+        &mut self,
+        queue: &wgpu::Queue,
+        detail: std::sync::Arc<crate::procedural::Detail>,
+    ) -> Result<(), RenderError> {
+        detail.check_blend(self.settings.blend_fraction as f64)?;
+        if !self.detail.replace_detail(queue, detail.clone()) {
+            return Err(RenderError::Gpu(
+                "the renderer was built without detail or with another relief map size".into(),
+            ));
+        }
+        if let Some(feed) = &mut self.feed {
+            feed.set_detail(Some(detail.clone()));
+        }
+        self.terrain = self.terrain.clone().with_detail_of(Some(detail));
+        self.grids.iter_mut().for_each(|g| *g = None);
+        Ok(())
+    }
+
     /// The grid a level's texture holds and its heights in grid order (row gy0 first, column
     /// gx0 first), read back from the GPU: tests compare the fill with the terrain function.
     pub fn read_level(

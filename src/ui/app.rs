@@ -3,6 +3,7 @@
 //! to the panel or the camera. The surface and the encoding live in `gpu.rs`.
 
 use std::path::PathBuf;
+use std::sync::Arc;
 use std::time::{Instant, SystemTime, UNIX_EPOCH};
 
 use winit::application::ApplicationHandler;
@@ -21,6 +22,7 @@ use crate::scenes::CameraSpec;
 use crate::terrain::Terrain;
 
 use super::controls;
+use super::editor::{Editor, EditorView};
 use super::gpu::{Acquired, Gpu};
 use super::input::{Drag, Input};
 use super::panel::{FrameStats, LiveSettings, MeshDraft, Panel, PanelAction, Readout};
@@ -28,6 +30,11 @@ use super::{UiError, ViewerOptions};
 
 /// Environment variable of the smoke check: screenshot after this many frames, then quit.
 pub const SMOKE_FRAMES_ENV: &str = "GLOBE_VIEWER_SMOKE_FRAMES";
+/// Smoke check: half way through, load this detail preset through the editor (the live path:
+/// one rebuild, the levels refill).
+pub const SMOKE_PRESET_ENV: &str = "GLOBE_VIEWER_SMOKE_PRESET";
+/// Opens the detail editor's window at start (any value).
+pub const EDITOR_ENV: &str = "GLOBE_VIEWER_EDITOR";
 
 /// Runs the viewer; `smoke_frames` (from [`SMOKE_FRAMES_ENV`] when None) ends it after a
 /// screenshot.
@@ -111,6 +118,8 @@ struct App {
     flight_started: Option<Instant>,
     /// The error heat map of the view it was measured for.
     error_overlay: Option<(Camera, egui::TextureHandle)>,
+    /// The detail editor's window (opened from the panel).
+    editor: Editor,
 }
 
 /// How long the viewer takes to fly the `flight` path.
@@ -124,6 +133,13 @@ impl App {
             .camera(|lat, lon| terrain_height_m(&planet, lat, lon));
         controls::normalize(&mut camera, |lat, lon| terrain_height_m(&planet, lat, lon));
         let panel = Panel::new(&options.settings);
+        let mut editor = Editor::new(
+            planet
+                .detail()
+                .map(|d| d.params().clone())
+                .unwrap_or_default(),
+        );
+        editor.open = std::env::var_os(EDITOR_ENV).is_some();
         Self {
             display,
             options,
@@ -140,6 +156,7 @@ impl App {
             smoke_frames,
             flight_started: None,
             error_overlay: None,
+            editor,
         }
     }
 
@@ -185,7 +202,7 @@ impl App {
         let info = gpu
             .terrain
             .prepare(&gpu.ctx.queue, &mut encoder, &self.camera, width, height);
-        let Some((output, actions)) = self.run_panel(&info, terrain_here_m) else {
+        let Some((output, actions, detail)) = self.run_panel(&info, terrain_here_m) else {
             return;
         };
         if let Some(gpu) = self.gpu.as_mut() {
@@ -193,6 +210,9 @@ impl App {
         }
         self.last_info = Some(info);
         self.frames += 1;
+        if let Some(params) = detail {
+            self.apply_detail(params);
+        }
         self.after_frame(event_loop, actions);
     }
 
@@ -231,19 +251,25 @@ impl App {
     }
 
     /// Runs egui for this frame: the error overlay (while the camera has not moved) under the
-    /// panel, which shows `info`; applies the live settings the panel changed. Returns egui's
-    /// output to paint and the actions to carry out after the frame.
+    /// panel, which shows `info`, and the detail editor's window; applies the live settings the
+    /// panel changed. Returns egui's output to paint, the actions to carry out after the frame
+    /// and the detail parameters to rebuild with (at most one rebuild a frame).
     fn run_panel(
         &mut self,
         info: &FrameInfo,
         terrain_here_m: f64,
-    ) -> Option<(egui::FullOutput, Vec<PanelAction>)> {
+    ) -> Option<(
+        egui::FullOutput,
+        Vec<PanelAction>,
+        Option<crate::procedural::DetailParams>,
+    )> {
         let gpu = self.gpu.as_mut()?;
         let raw_input = gpu.egui_state.take_egui_input(&gpu.window);
         let mut live = LiveSettings {
             transform: gpu.terrain.settings.transform,
             approx_start_level: gpu.terrain.settings.approx_start_level,
             overlay_levels: gpu.terrain.overlays.levels,
+            detail_editor: self.editor.open,
         };
         let readout = Readout {
             stats: &self.stats,
@@ -257,6 +283,13 @@ impl App {
             max_texture_size: gpu.ctx.device.limits().max_texture_dimension_2d,
         };
         let panel = &mut self.panel;
+        let editor = &mut self.editor;
+        let editor_view = EditorView {
+            detail: gpu.terrain.terrain.detail(),
+            centre_lat_deg: self.camera.lat_deg,
+            centre_lon_deg: self.camera.lon_deg,
+        };
+        let mut detail = None;
         let mut actions = Vec::new();
         let egui_ctx = gpu.egui_state.egui_ctx().clone();
         if self
@@ -279,18 +312,54 @@ impl App {
                 );
             }
             actions = panel.show(ui, &readout, &mut live);
+            editor.open = live.detail_editor;
+            detail = editor.show(ui.ctx(), &editor_view);
         });
         // Takes effect from the next frame's uniforms.
         gpu.terrain.settings.transform = live.transform;
         gpu.terrain.settings.approx_start_level = live.approx_start_level;
         gpu.terrain.overlays.levels = live.overlay_levels;
-        Some((output, actions))
+        Some((output, actions, detail))
+    }
+
+    /// Rebuilds the detail with `params` (same relief map, the editor's paint) and hands it to
+    /// the renderer, which refills its levels on the next frame; the editor shows a refusal.
+    /// The camera stays at its height above the ground.
+    fn apply_detail(&mut self, params: crate::procedural::DetailParams) {
+        let Some(gpu) = self.gpu.as_mut() else {
+            return;
+        };
+        let Some(current) = gpu.terrain.terrain.detail() else {
+            return;
+        };
+        let detail = Arc::new(current.with_params(params));
+        let result = gpu
+            .terrain
+            .set_detail(&gpu.ctx.queue, detail.clone())
+            .map_err(|e| e.to_string());
+        if result.is_ok() {
+            // The camera keeps its height above the ground, which moved with the detail.
+            let (lat, lon) = (self.camera.lat_deg, self.camera.lon_deg);
+            let old_ground_m = terrain_height_m(&self.planet, lat, lon);
+            self.planet = self.planet.clone().with_detail_of(Some(detail));
+            self.camera.altitude_m += terrain_height_m(&self.planet, lat, lon) - old_ground_m;
+        }
+        self.editor.rebuilt(result);
     }
 
     /// After a presented frame: the panel's actions, then the smoke check's exit.
     fn after_frame(&mut self, event_loop: &ActiveEventLoop, actions: Vec<PanelAction>) {
         for action in actions {
             self.apply(action);
+        }
+        if let Some(limit) = self.smoke_frames
+            && self.frames == limit / 2
+            && let Ok(name) = std::env::var(SMOKE_PRESET_ENV)
+        {
+            match crate::procedural::presets::find(&name) {
+                Some(preset) => self.editor.apply_preset(preset),
+                None => eprintln!("globe viewer: no detail preset '{name}'"),
+            }
         }
         if let Some(limit) = self.smoke_frames
             && self.frames >= limit

@@ -8,6 +8,7 @@
 //! | `input.rs` | mouse and keyboard state between events |
 //! | `controls.rs` | pure f64 camera controls (look, pan, zoom, fly), unit-tested |
 //! | `panel.rs` | the egui side panel: statistics, level table, settings, "go to"; no wgpu code |
+//! | `editor.rs` | the detail editor window: sliders, presets, load/save/reset, basis images, relief brush; no wgpu code |
 //!
 //! Controls (also listed in the panel):
 //!
@@ -21,11 +22,13 @@
 //! | Shift (with W/S/A/D/Q/E) | 5 × faster |
 //! | F12, P | screenshot: `globe-screenshot-<unix seconds>.png` in the current directory |
 //!
-//! Hidden option for automated checks: `GLOBE_VIEWER_SMOKE_FRAMES=N` takes a screenshot after N
-//! frames and closes the window.
+//! Hidden options for automated checks: `GLOBE_VIEWER_SMOKE_FRAMES=N` takes a screenshot after N
+//! frames and closes the window; `GLOBE_VIEWER_SMOKE_PRESET=NAME` loads a detail preset through
+//! the editor half way through; `GLOBE_VIEWER_EDITOR=1` opens the detail editor at start.
 
 mod app;
 pub mod controls;
+pub mod editor;
 mod gpu;
 mod input;
 pub mod panel;
@@ -174,7 +177,8 @@ mod tests {
     /// Opens the real window for a few frames, takes a screenshot and closes: needs a display
     /// (e.g. `xvfb-run cargo test --lib ui::tests::viewer_smoke -- --ignored --nocapture`) and
     /// skips without one. `GLOBE_VIEWER_SMOKE_SCENE` picks the scene, `GLOBE_VIEWER_SMOKE_FRAMES`
-    /// the frame count, `GLOBE_VIEWER_SMOKE_OVERLAY` turns the level overlay on; the screenshot
+    /// the frame count, `GLOBE_VIEWER_SMOKE_OVERLAY` turns the level overlay on,
+    /// `GLOBE_VIEWER_SMOKE_PRESET` turns the detail on and loads that preset half way; the screenshot
     /// is deleted afterwards unless `GLOBE_VIEWER_SMOKE_KEEP` is set.
     #[test]
     #[ignore = "opens a window"]
@@ -204,9 +208,17 @@ mod tests {
             .unwrap_or(30);
         let overlay_levels = std::env::var("GLOBE_VIEWER_SMOKE_OVERLAY").is_ok();
         let start = crate::scenes::find(&scene).expect("a scene name").view();
+        // A preset needs the detail on (the default options have none).
+        let terrain = match std::env::var(app::SMOKE_PRESET_ENV) {
+            Ok(_) => {
+                crate::terrain::Terrain::analytic_earth().with_detail(Some(Default::default()))
+            }
+            Err(_) => crate::terrain::Terrain::analytic_earth(),
+        };
         let options = ViewerOptions {
             start,
             overlay_levels,
+            terrain,
             ..Default::default()
         };
         app::run(options, Some(frames)).expect("the viewer runs");

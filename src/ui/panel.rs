@@ -124,6 +124,8 @@ pub struct LiveSettings {
     pub transform: TransformForm,
     pub approx_start_level: u32,
     pub overlay_levels: bool,
+    /// The detail editor's window is open (`ui::editor`).
+    pub detail_editor: bool,
 }
 
 /// What the panel shows this frame.
@@ -289,6 +291,8 @@ impl Panel {
         });
         ui.checkbox(&mut live.overlay_levels, "levels")
             .on_hover_text("colour each clipmap level");
+        ui.checkbox(&mut live.detail_editor, "detail editor")
+            .on_hover_text("edit the procedural detail live: sliders, presets, load/save, paint");
         if ui
             .button("error overlay (ρ)")
             .on_hover_text(
@@ -753,6 +757,7 @@ mod tests {
             transform: settings.transform,
             approx_start_level: settings.approx_start_level,
             overlay_levels: false,
+            detail_editor: true,
         };
         let ctx = egui::Context::default();
         // The "go to" field's error line lays out too.
