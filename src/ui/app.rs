@@ -116,6 +116,8 @@ struct App {
     smoke_frames: Option<u64>,
     /// When the `flight` path started playing.
     flight_started: Option<Instant>,
+    /// When the window opened: the water's waves move with it.
+    opened: Instant,
     /// The error heat map of the view it was measured for.
     error_overlay: Option<(Camera, egui::TextureHandle)>,
     /// The detail editor's window (opened from the panel).
@@ -155,6 +157,7 @@ impl App {
             frames: 0,
             smoke_frames,
             flight_started: None,
+            opened: Instant::now(),
             error_overlay: None,
             editor,
         }
@@ -199,6 +202,7 @@ impl App {
                 label: Some("window frame"),
             });
         let (width, height) = (gpu.config.width, gpu.config.height);
+        gpu.terrain.look_time_s = self.opened.elapsed().as_secs_f64();
         let info = gpu
             .terrain
             .prepare(&gpu.ctx.queue, &mut encoder, &self.camera, width, height);
@@ -270,6 +274,8 @@ impl App {
             approx_start_level: gpu.terrain.settings.approx_start_level,
             overlay_levels: gpu.terrain.overlays.levels,
             detail_editor: self.editor.open,
+            textures: gpu.terrain.look().textures,
+            sky: gpu.terrain.look().sky,
         };
         let readout = Readout {
             stats: &self.stats,
@@ -319,6 +325,15 @@ impl App {
         gpu.terrain.settings.transform = live.transform;
         gpu.terrain.settings.approx_start_level = live.approx_start_level;
         gpu.terrain.overlays.levels = live.overlay_levels;
+        let look = crate::look::LookSettings {
+            textures: live.textures,
+            sky: live.sky,
+            ..gpu.terrain.look()
+        };
+        if look != gpu.terrain.look() {
+            // Rebuilds the terrain pipelines (compiled per look): one slow frame.
+            gpu.terrain.set_look(&gpu.ctx.device, look);
+        }
         Some((output, actions, detail))
     }
 

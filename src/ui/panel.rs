@@ -126,6 +126,9 @@ pub struct LiveSettings {
     pub overlay_levels: bool,
     /// The detail editor's window is open (`ui::editor`).
     pub detail_editor: bool,
+    /// The look's proto-textured surface types and its atmosphere (`look::LookSettings`).
+    pub textures: bool,
+    pub sky: bool,
 }
 
 /// What the panel shows this frame.
@@ -291,6 +294,12 @@ impl Panel {
         });
         ui.checkbox(&mut live.overlay_levels, "levels")
             .on_hover_text("colour each clipmap level");
+        ui.horizontal(|ui| {
+            ui.checkbox(&mut live.textures, "surface types")
+                .on_hover_text("proto-textured sand, grass, forest, rock, snow (off: the tint)");
+            ui.checkbox(&mut live.sky, "atmosphere")
+                .on_hover_text("sky, glow around the disk, haze (off: flat sky, raw colours)");
+        });
         ui.checkbox(&mut live.detail_editor, "detail editor")
             .on_hover_text("edit the procedural detail live: sliders, presets, load/save, paint");
         if ui
@@ -758,6 +767,8 @@ mod tests {
             approx_start_level: settings.approx_start_level,
             overlay_levels: false,
             detail_editor: true,
+            textures: true,
+            sky: true,
         };
         let ctx = egui::Context::default();
         // The "go to" field's error line lays out too.
