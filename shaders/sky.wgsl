@@ -39,6 +39,11 @@ fn fs_sky(in: SkyOut) -> @location(0) vec4<f32> {
         t_max = -b - sqrt((radius - sqrt(p2)) * (radius + sqrt(p2)));
         hits = true;
     }
+    // Rays that miss the shell (most of the screen from space) are black: skip the integral.
+    let top = look.shell.y;
+    if p2 >= top * top {
+        return vec4<f32>(0.0, 0.0, 0.0, 1.0);
+    }
     let s = atmosphere_scatter(eye, d, t_max, sun, 16u);
     var c = s.inscatter;
     if !hits && dot(d, sun) > look.sun_cos {

@@ -66,6 +66,9 @@ pub struct BenchOptions {
     pub frame_interval: Option<std::time::Duration>,
     /// What of the look is drawn (timed with the frame; the error does not depend on it).
     pub look: LookSettings,
+    /// Also time the same frames with the plain look (`LookSettings::plain`: no surface
+    /// types, no atmosphere), named scenes only: the look's cost as a ratio in one run.
+    pub compare_plain_look: bool,
 }
 
 /// One measured frame.
@@ -124,6 +127,8 @@ pub struct BenchRun {
     pub error: Option<ErrorStats>,
     /// The pass-through pipeline's frames (see [`BenchOptions::passthrough`]).
     pub passthrough: Vec<FrameRecord>,
+    /// The plain look's frames (see [`BenchOptions::compare_plain_look`]).
+    pub plain_look: Vec<FrameRecord>,
     pub wall_s: f64,
 }
 
@@ -219,6 +224,17 @@ pub fn run(
         }
         renderer.use_passthrough = false;
     }
+    let mut plain_look = Vec::new();
+    if let (true, Some(camera)) = (options.compare_plain_look, &fixed) {
+        renderer.set_look(&ctx.device, LookSettings::plain());
+        // One untimed frame: the new pipelines' first draw compiles them on some drivers.
+        target.draw_timed(ctx, &mut renderer, camera, timer.as_ref())?;
+        for _ in 0..options.frames {
+            let f = target.draw_timed(ctx, &mut renderer, camera, timer.as_ref())?;
+            plain_look.push(FrameRecord::of(&f, camera));
+        }
+        renderer.set_look(&ctx.device, options.look);
+    }
     let final_camera = camera_of(options.frames.saturating_sub(1));
     let (mut settle_s, mut settled, mut final_vs_loaded_px, mut final_frame) =
         (None, true, None, None);
@@ -261,6 +277,7 @@ pub fn run(
         adapter: ctx.adapter_description(),
         error,
         passthrough,
+        plain_look,
         options: options.clone(),
         frames,
         settle_s,
@@ -290,6 +307,18 @@ impl BenchRun {
         summary(
             &self
                 .passthrough
+                .iter()
+                .filter_map(|f| f.gpu_ms)
+                .collect::<Vec<_>>(),
+        )
+        .map(|s| s.0)
+    }
+
+    /// Median GPU time of the plain look's frames.
+    pub fn plain_look_gpu_ms(&self) -> Option<f64> {
+        summary(
+            &self
+                .plain_look
                 .iter()
                 .filter_map(|f| f.gpu_ms)
                 .collect::<Vec<_>>(),
@@ -400,6 +429,10 @@ impl BenchRun {
             terrain_vs_passthrough: (self.gpu_ms())
                 .zip(self.passthrough_gpu_ms())
                 .map(|(t, p)| t.0 / p),
+            plain_look_gpu_ms: self.plain_look_gpu_ms(),
+            look_vs_plain: (self.gpu_ms())
+                .zip(self.plain_look_gpu_ms())
+                .map(|(t, p)| t.0 / p),
             wall_s: self.wall_s,
         }
     }
@@ -465,6 +498,9 @@ pub struct BenchJson {
     pub mismatch_px: Option<usize>,
     pub passthrough_gpu_ms: Option<f64>,
     pub terrain_vs_passthrough: Option<f64>,
+    /// The frames' GPU time with the plain look, and the look's over it (`--plain-look`).
+    pub plain_look_gpu_ms: Option<f64>,
+    pub look_vs_plain: Option<f64>,
     pub wall_s: f64,
 }
 
@@ -824,6 +860,7 @@ mod view_tests {
             measure_error: false,
             frame_interval: None,
             look: crate::look::LookSettings::default(),
+            compare_plain_look: false,
         }
     }
 

@@ -31,6 +31,7 @@ fn bench_json_has_the_promised_fields() {
         stream: StreamSettings::default(),
         frame_interval: None::<Duration>,
         look: globe::look::LookSettings::default(),
+        compare_plain_look: false,
         measure_error: true,
         passthrough: true,
     };

@@ -337,6 +337,10 @@ struct BenchArgs {
     /// sphere, no texture reads, flat colour) and report terrain/pass-through GPU time.
     #[arg(long)]
     passthrough: bool,
+    /// Also time the same frames with the plain look (no surface types, no atmosphere) and
+    /// report the look's GPU time over the plain one's (named scenes).
+    #[arg(long = "plain-look")]
+    plain_look: bool,
     /// Tiles read by each side of the `jump` throughput comparison.
     #[arg(long = "throughput-tiles", default_value_t = 256)]
     throughput_tiles: usize,
@@ -644,6 +648,7 @@ fn bench(args: &BenchArgs) -> anyhow::Result<ExitCode> {
             measure_error: !args.no_error,
             passthrough: args.passthrough,
             look: args.look.settings(),
+            compare_plain_look: args.plain_look,
             frame_interval: {
                 let default = if is_flight { 60.0 } else { 0.0 };
                 let fps = args.fps.unwrap_or(default);
@@ -737,6 +742,12 @@ fn print_bench(run: &globe::bench::BenchRun) {
     if let (Some(p), Some(t)) = (run.passthrough_gpu_ms(), run.gpu_ms()) {
         println!(
             "  pass-through GPU ms median {p:.3}: terrain / pass-through {:.2}",
+            t.0 / p
+        );
+    }
+    if let (Some(p), Some(t)) = (run.plain_look_gpu_ms(), run.gpu_ms()) {
+        println!(
+            "  plain look GPU ms median {p:.3}: look / plain {:.2}",
             t.0 / p
         );
     }
