@@ -1,3 +1,6 @@
+//! Prints the `flight` path's camera at 8 evenly spaced times (space → the ground at Garda) in
+//! the form `globe render --camera=…` takes, over the embedded Earth (README "The look": the
+//! flight strip).
 fn main() {
     let t = globe::terrain::Terrain::embedded_earth().unwrap();
     for i in 0..8 {

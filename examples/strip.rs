@@ -1,3 +1,5 @@
+//! Tiles PNGs of one size into one image: `strip OUT.png COLUMNS IN.png…` (README "The look":
+//! the flight strip and the before/after sheets).
 fn main() {
     let args: Vec<String> = std::env::args().collect();
     let out = &args[1];
