@@ -304,26 +304,12 @@ impl BenchRun {
 
     /// Median GPU time of the pass-through frames.
     pub fn passthrough_gpu_ms(&self) -> Option<f64> {
-        summary(
-            &self
-                .passthrough
-                .iter()
-                .filter_map(|f| f.gpu_ms)
-                .collect::<Vec<_>>(),
-        )
-        .map(|s| s.0)
+        median_gpu_ms(&self.passthrough)
     }
 
     /// Median GPU time of the plain look's frames.
     pub fn plain_look_gpu_ms(&self) -> Option<f64> {
-        summary(
-            &self
-                .plain_look
-                .iter()
-                .filter_map(|f| f.gpu_ms)
-                .collect::<Vec<_>>(),
-        )
-        .map(|s| s.0)
+        median_gpu_ms(&self.plain_look)
     }
 
     /// The largest decoded-tile cache size seen in any frame.
@@ -441,6 +427,11 @@ impl BenchRun {
     pub fn to_json(&self) -> String {
         to_json_line(&self.json_fields())
     }
+}
+
+/// Median GPU time of `frames` (None without timestamp queries).
+fn median_gpu_ms(frames: &[FrameRecord]) -> Option<f64> {
+    summary(&frames.iter().filter_map(|f| f.gpu_ms).collect::<Vec<_>>()).map(|s| s.0)
 }
 
 /// One line of JSON. Every JSON that globe writes goes through `serde_json`, whose rule for
