@@ -138,18 +138,7 @@ fn run(ctx: &GpuContext, a: &Atmosphere, sun: DVec3, rays: &[Ray]) -> Vec<(DVec3
         globe::render::shader::assemble(""),
         globe::render::shader::LOOK
     );
-    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-        label: Some("atmosphere twin test"),
-        source: wgpu::ShaderSource::Wgsl(source.into()),
-    });
-    let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-        label: None,
-        layout: None,
-        module: &module,
-        entry_point: Some("cs_main"),
-        compilation_options: Default::default(),
-        cache: None,
-    });
+    let pipeline = common::compute_pipeline(ctx, source, "atmosphere twin test");
     let mut look = LookUniforms::zeroed();
     look.rayleigh = [
         a.rayleigh.x as f32,
@@ -187,51 +176,16 @@ fn run(ctx: &GpuContext, a: &Atmosphere, sun: DVec3, rays: &[Ray]) -> Vec<(DVec3
         contents: bytemuck::bytes_of(&look),
         usage: wgpu::BufferUsages::UNIFORM,
     });
-    let output = device.create_buffer(&wgpu::BufferDescriptor {
-        label: None,
-        size,
-        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-        mapped_at_creation: false,
-    });
-    let back = device.create_buffer(&wgpu::BufferDescriptor {
-        label: None,
-        size,
-        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-        mapped_at_creation: false,
-    });
-    let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: None,
-        layout: &pipeline.get_bind_group_layout(0),
-        entries: &[
-            wgpu::BindGroupEntry {
-                binding: 0,
-                resource: rays_buf.as_entire_binding(),
-            },
-            wgpu::BindGroupEntry {
-                binding: 1,
-                resource: output.as_entire_binding(),
-            },
-            wgpu::BindGroupEntry {
-                binding: 2,
-                resource: uniform.as_entire_binding(),
-            },
-        ],
-    });
-    let mut encoder = device.create_command_encoder(&Default::default());
-    {
-        let mut pass = encoder.begin_compute_pass(&Default::default());
-        pass.set_pipeline(&pipeline);
-        pass.set_bind_group(0, &group, &[]);
-        pass.dispatch_workgroups(rays.len() as u32, 1, 1);
-    }
-    encoder.copy_buffer_to_buffer(&output, 0, &back, 0, size);
-    ctx.queue.submit([encoder.finish()]);
-    back.map_async(wgpu::MapMode::Read, .., |r| r.unwrap());
-    ctx.wait_idle().unwrap();
-    let data = back.slice(..).get_mapped_range().unwrap();
-    let v: &[[f32; 4]] = bytemuck::cast_slice(&data);
-    let out = v
-        .chunks(2)
+    let output = common::output_buffer(ctx, size);
+    let data = common::run_compute(
+        ctx,
+        &pipeline,
+        &[&rays_buf, &output, &uniform],
+        &output,
+        rays.len() as u32,
+    );
+    let v: Vec<[f32; 4]> = bytemuck::pod_collect_to_vec(&data);
+    v.chunks(2)
         .map(|p| {
             (
                 DVec3::new(p[0][0] as f64, p[0][1] as f64, p[0][2] as f64),
@@ -239,8 +193,5 @@ fn run(ctx: &GpuContext, a: &Atmosphere, sun: DVec3, rays: &[Ray]) -> Vec<(DVec3
                 DVec3::new(p[1][0] as f64, p[1][1] as f64, p[1][2] as f64),
             )
         })
-        .collect();
-    drop(data);
-    back.unmap();
-    out
+        .collect()
 }

@@ -82,18 +82,7 @@ fn wgsl_map_transform_error_on_the_ground() {
     };
     let device = &ctx.device;
     let source = format!("{}\n{KERNEL}", globe::render::shader::assemble(""));
-    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-        label: Some("map transform test"),
-        source: wgpu::ShaderSource::Wgsl(source.into()),
-    });
-    let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-        label: None,
-        layout: None,
-        module: &module,
-        entry_point: Some("cs_main"),
-        compilation_options: Default::default(),
-        cache: None,
-    });
+    let pipeline = common::compute_pipeline(ctx, source, "map transform test");
 
     let m = 10.0 / EARTH_RADIUS_M;
     let viewers = [
@@ -157,50 +146,15 @@ fn wgsl_map_transform_error_on_the_ground() {
             contents: bytemuck::bytes_of(&uniforms),
             usage: wgpu::BufferUsages::UNIFORM,
         });
-        let output = device.create_buffer(&wgpu::BufferDescriptor {
-            label: None,
-            size,
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-            mapped_at_creation: false,
-        });
-        let readback = device.create_buffer(&wgpu::BufferDescriptor {
-            label: None,
-            size,
-            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: None,
-            layout: &pipeline.get_bind_group_layout(0),
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: uniform_buf.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: input_buf.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 2,
-                    resource: output.as_entire_binding(),
-                },
-            ],
-        });
-        let mut encoder = device.create_command_encoder(&Default::default());
-        {
-            let mut pass = encoder.begin_compute_pass(&Default::default());
-            pass.set_pipeline(&pipeline);
-            pass.set_bind_group(0, &bind_group, &[]);
-            pass.dispatch_workgroups((input.len() as u32).div_ceil(64), 1, 1);
-        }
-        encoder.copy_buffer_to_buffer(&output, 0, &readback, 0, size);
-        ctx.queue.submit([encoder.finish()]);
-        readback.map_async(wgpu::MapMode::Read, .., |r| r.unwrap());
-        ctx.wait_idle().unwrap();
-        let results: Vec<[f32; 4]> =
-            bytemuck::cast_slice(&readback.get_mapped_range(..).unwrap()).to_vec();
-        readback.unmap();
+        let output = common::output_buffer(ctx, size);
+        let bytes = common::run_compute(
+            ctx,
+            &pipeline,
+            &[&uniform_buf, &input_buf, &output],
+            &output,
+            (input.len() as u32).div_ceil(64),
+        );
+        let results: Vec<[f32; 4]> = bytemuck::pod_collect_to_vec(&bytes);
 
         let (mut stable_max, mut direct_max, mut twin_max) = (0.0f64, 0.0f64, 0.0f64);
         for ((p, seam), r) in cases.iter().zip(&results) {

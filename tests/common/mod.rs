@@ -85,3 +85,79 @@ pub fn assert_covers_every_scene(covered: &[&str], file: &str) {
         );
     }
 }
+
+/// The compute pipeline of `source`'s entry point `cs_main` (bind group layout derived from the
+/// shader).
+pub fn compute_pipeline(ctx: &GpuContext, source: String, label: &str) -> wgpu::ComputePipeline {
+    let module = ctx
+        .device
+        .create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some(label),
+            source: wgpu::ShaderSource::Wgsl(source.into()),
+        });
+    ctx.device
+        .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some(label),
+            layout: None,
+            module: &module,
+            entry_point: Some("cs_main"),
+            compilation_options: Default::default(),
+            cache: None,
+        })
+}
+
+/// A storage buffer of `size` bytes the shader writes and the test reads back.
+pub fn output_buffer(ctx: &GpuContext, size: u64) -> wgpu::Buffer {
+    ctx.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("compute output"),
+        size,
+        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+        mapped_at_creation: false,
+    })
+}
+
+/// Dispatches `pipeline` over `workgroups` (x) with `buffers` bound at group 0, bindings 0, 1, …
+/// in order, and returns the bytes of `output` (one of them, made by [`output_buffer`]).
+pub fn run_compute(
+    ctx: &GpuContext,
+    pipeline: &wgpu::ComputePipeline,
+    buffers: &[&wgpu::Buffer],
+    output: &wgpu::Buffer,
+    workgroups: u32,
+) -> Vec<u8> {
+    let device = &ctx.device;
+    let entries: Vec<wgpu::BindGroupEntry> = buffers
+        .iter()
+        .enumerate()
+        .map(|(i, b)| wgpu::BindGroupEntry {
+            binding: i as u32,
+            resource: b.as_entire_binding(),
+        })
+        .collect();
+    let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: None,
+        layout: &pipeline.get_bind_group_layout(0),
+        entries: &entries,
+    });
+    let size = output.size();
+    let back = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("compute readback"),
+        size,
+        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    let mut encoder = device.create_command_encoder(&Default::default());
+    {
+        let mut pass = encoder.begin_compute_pass(&Default::default());
+        pass.set_pipeline(pipeline);
+        pass.set_bind_group(0, &group, &[]);
+        pass.dispatch_workgroups(workgroups, 1, 1);
+    }
+    encoder.copy_buffer_to_buffer(output, 0, &back, 0, size);
+    ctx.queue.submit([encoder.finish()]);
+    back.map_async(wgpu::MapMode::Read, .., |r| r.unwrap());
+    ctx.wait_idle().unwrap();
+    let bytes = back.slice(..).get_mapped_range().unwrap().to_vec();
+    back.unmap();
+    bytes
+}
