@@ -8,6 +8,7 @@
 //! | [`dem`] | elevation rasters (EHdr/BIL, netCDF-3) and the tiled pyramid file |
 //! | [`stream`] | tile streaming: sources (mmap, fault injection), tokio streamer, LRU cache |
 //! | [`clipmap`] | ring mesh, level texture windows, level and sector selection |
+//! | [`planar`] | close-up LOD methods in a local tangent frame: geomipmapping with geomorphing, the error-bounded projected grid, geometry-image warping |
 //! | [`procedural`] | detail below the data: multifractal value noise over a 3-D integer lattice, domain warping, the data's relief, the geometry rule λ(s) |
 //! | [`terrain`] | the terrain function: base heights (the analytic test planet or the DEM pyramid) plus the procedural detail, and water (max(h, level)) |
 //! | [`look`] | the look: surface types and their proto-textures, the atmosphere (single scattering) |
@@ -27,6 +28,7 @@ pub mod geo;
 pub mod look;
 pub mod measure;
 pub mod plan;
+pub mod planar;
 pub mod procedural;
 pub mod progress;
 pub mod render;

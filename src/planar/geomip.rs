@@ -1,0 +1,1 @@
+//! Geomipmapping with geomorphing (geomipmapping-geomorphing.md): filled in by its own change.
