@@ -17,6 +17,7 @@
 //! has the planet's centre at the origin and the viewer on +z̃ (spherical-clipmaps.md §3).
 
 pub mod clipmap;
+pub mod geomip;
 
 use std::f64::consts::TAU;
 
@@ -27,6 +28,7 @@ use crate::geo::{projection, sphere};
 use crate::terrain::Terrain;
 
 pub use clipmap::{ClipmapPlan, LevelFill};
+pub use geomip::{GeomipPlan, GeomipState};
 
 /// Direction to the sun in the viewer's local frame: 35° above the horizon in the south-east,
 /// so every named scene is lit from the same side (a fixed world sun would leave some dark).

@@ -194,29 +194,28 @@ pub fn main_diagonal(x: u32, y: u32, s: u32) -> bool {
 /// Lowers each patch's level so that neighbours differ by at most one (ℓ_i ≤ ℓ_j + 1): then a
 /// border is never more than one level coarser than a patch's interior, the case the strips
 /// nest exactly for. Lowering only refines, so every patch still meets τ; the result is
-/// continuous in the levels given.
+/// continuous in the levels given. Negative levels mark absent patches (culled), which
+/// constrain nothing.
 pub fn restrict_levels(levels: &mut [f64], cols: usize) {
     let rows = levels.len() / cols;
     loop {
         let mut changed = false;
         for i in 0..levels.len() {
+            if levels[i] < 0.0 {
+                continue;
+            }
             let (c, r) = (i % cols, i / cols);
-            let mut limit = f64::INFINITY;
-            if c > 0 {
-                limit = limit.min(levels[i - 1] + 1.0);
-            }
-            if c + 1 < cols {
-                limit = limit.min(levels[i + 1] + 1.0);
-            }
-            if r > 0 {
-                limit = limit.min(levels[i - cols] + 1.0);
-            }
-            if r + 1 < rows {
-                limit = limit.min(levels[i + cols] + 1.0);
-            }
-            if levels[i] > limit {
-                levels[i] = limit;
-                changed = true;
+            let neighbours = [
+                (c > 0).then(|| i - 1),
+                (c + 1 < cols).then(|| i + 1),
+                (r > 0).then(|| i - cols),
+                (r + 1 < rows).then(|| i + cols),
+            ];
+            for j in neighbours.into_iter().flatten() {
+                if levels[j] >= 0.0 && levels[i] > levels[j] + 1.0 {
+                    levels[i] = levels[j] + 1.0;
+                    changed = true;
+                }
             }
         }
         if !changed {

@@ -1,0 +1,320 @@
+//! The geomipmapping part of a frame plan (`planar::geomip`): where the patch grid lies, which
+//! patches are in the frustum, and each one's level and border levels.
+//!
+//! State carried from frame to frame ([`GeomipState`]): the tangent frame the lattice lives in
+//! (moved only when the viewer has gone half the grid's reach from its anchor, by a whole
+//! number of patches, so the lattice stays put on the ground), the finest spacing (a power of
+//! two near a quarter of the height above the terrain, changed with a factor-of-two hysteresis)
+//! and each patch's δ_k, computed once from the terrain function when the patch first comes
+//! into view (a bounded number per frame; until then a patch draws at level 0, which has no
+//! error of its own).
+
+use std::collections::HashMap;
+
+use glam::{DVec2, DVec3};
+
+use crate::clipmap::selection::{Frustum, Sphere};
+use crate::geo::sphere;
+use crate::planar::LocalFrame;
+use crate::planar::geomip::{
+    GeomipSettings, Patch, border_levels, continuous_level, patch_deltas, restrict_levels,
+};
+
+use super::{TerrainQuery, ViewPlan};
+
+/// Finest spacing = this × the height above the terrain, rounded to a power of two.
+pub const SPACING_PER_HEIGHT: f64 = 0.25;
+/// Finest spacing limits, metres.
+pub const MIN_SPACING_M: f64 = 1.0 / 64.0;
+pub const MAX_SPACING_M: f64 = 4096.0;
+/// Patches whose δ the plan computes per frame at most (289 heights each with 17²).
+pub const NEW_PATCHES_PER_FRAME: usize = 256;
+
+/// What the geomipmapping mode keeps between frames.
+#[derive(Debug, Default)]
+pub struct GeomipState {
+    frame: Option<LocalFrame>,
+    spacing_m: f64,
+    /// δ_k and the height range of each patch, by lattice corner (units of the finest spacing).
+    cache: HashMap<[i64; 2], PatchData>,
+}
+
+#[derive(Clone, Debug)]
+struct PatchData {
+    deltas: Vec<f64>,
+    lo_m: f64,
+    hi_m: f64,
+}
+
+/// What geomipmapping draws this frame.
+#[derive(Clone, Debug, PartialEq)]
+pub struct GeomipPlan {
+    pub frame: LocalFrame,
+    /// The finest lattice spacing, metres.
+    pub spacing_m: f64,
+    /// Patches in the frustum, with their levels.
+    pub patches: Vec<Patch>,
+    /// Which of `patches` lie on the grid's outer edge, per side (they carry a skirt there).
+    pub outer_sides: Vec<[bool; 4]>,
+    /// The grid's square on the plane (min and max corner, metres from the anchor): the
+    /// clipmap draws outside it.
+    pub square_m: [DVec2; 2],
+    /// Patches in view whose δ is not computed yet (drawn at level 0): the frame is not settled.
+    pub waiting: usize,
+}
+
+impl GeomipState {
+    /// Plans the patch grid around the viewer. Heights come from `query` (the tiles at hand
+    /// while streaming).
+    pub fn plan(
+        &mut self,
+        view: &ViewPlan,
+        settings: &GeomipSettings,
+        query: &dyn TerrainQuery,
+    ) -> GeomipPlan {
+        let radius = view.radius_m;
+        let nadir = view.nadir();
+        let cells = settings.patch_size - 1;
+        let cols = settings.patches as usize;
+
+        // Spacing with hysteresis: keep it while within a factor of two of the target.
+        let target = (SPACING_PER_HEIGHT * view.height_above_terrain_m.max(1e-3))
+            .clamp(MIN_SPACING_M, MAX_SPACING_M);
+        if !(self.spacing_m > 0.0 && target > 0.5 * self.spacing_m && target < 2.0 * self.spacing_m)
+        {
+            self.spacing_m = target.log2().round().exp2();
+            self.frame = None;
+        }
+        let spacing = self.spacing_m;
+        let patch_m = cells as f64 * spacing;
+        let reach_m = 0.5 * cols as f64 * patch_m;
+
+        // Anchor: moved by whole patches once the viewer is half the reach away.
+        let frame = match self.frame {
+            Some(f) => match f.plane_of(nadir) {
+                Some(p) if p.x.abs().max(p.y.abs()) < 0.5 * reach_m => f,
+                Some(p) => f.moved_to((p / patch_m).round() * patch_m),
+                None => LocalFrame::at(nadir, radius),
+            },
+            None => LocalFrame::at(nadir, radius),
+        };
+        if self.frame != Some(frame) {
+            self.cache.clear();
+        }
+        self.frame = Some(frame);
+
+        // The grid: cols × cols patches around the viewer's patch.
+        let v = frame.plane_of(nadir).unwrap_or_default() / patch_m;
+        let first = [
+            v.x.floor() as i64 - cols as i64 / 2,
+            v.y.floor() as i64 - cols as i64 / 2,
+        ];
+        let corner_of = |i: usize| {
+            [
+                (first[0] + (i % cols) as i64) * cells as i64,
+                (first[1] + (i / cols) as i64) * cells as i64,
+            ]
+        };
+        let plane = |c: [i64; 2], x: f64, y: f64| {
+            DVec2::new((c[0] as f64 + x) * spacing, (c[1] as f64 + y) * spacing)
+        };
+
+        let frustum = Frustum::new(
+            view.camera_from_view,
+            view.eye_view_m(),
+            view.fov_y_rad,
+            view.aspect,
+            view.near_m,
+        );
+        let world_from_view = view.camera.view_frame().world_from_view;
+        let view_from_world = world_from_view.transpose();
+        let eye_world = nadir * (radius + view.camera.altitude_m);
+        let lambda = view.height_px as f64 / (2.0 * (0.5 * view.fov_y_rad).tan());
+        let half_diag = patch_m * std::f64::consts::FRAC_1_SQRT_2;
+
+        let mut levels = vec![-1.0; cols * cols];
+        let mut visible = vec![false; cols * cols];
+        let mut waiting = 0;
+        let mut computed = 0;
+        let n = settings.patch_size;
+        for (i, level) in levels.iter_mut().enumerate() {
+            let c = corner_of(i);
+            let centre = frame.unit_at(plane(c, 0.5 * cells as f64, 0.5 * cells as f64));
+            let known = self.cache.get(&c).cloned();
+            let (lo, hi) = match &known {
+                Some(d) => (d.lo_m, d.hi_m),
+                None => query.height_bounds_near_m(centre, half_diag / radius),
+            };
+            let bound = Sphere {
+                centre_m: view_from_world * (centre * (radius + 0.5 * (lo + hi))),
+                radius_m: half_diag + 0.5 * (hi - lo) + 1e-3 * patch_m,
+            };
+            if !frustum.intersects(&bound) {
+                continue;
+            }
+            visible[i] = true;
+            let data = match known {
+                Some(d) => d,
+                None if computed < NEW_PATCHES_PER_FRAME => {
+                    computed += 1;
+                    let heights: Vec<f64> = (0..n * n)
+                        .map(|v| {
+                            let u = frame.unit_at(plane(c, (v % n) as f64, (v / n) as f64));
+                            height_at(query, u)
+                        })
+                        .collect();
+                    let (lo, hi) = heights
+                        .iter()
+                        .fold((f64::MAX, f64::MIN), |(a, b), &h| (a.min(h), b.max(h)));
+                    let d = PatchData {
+                        deltas: patch_deltas(n, &heights),
+                        lo_m: lo,
+                        hi_m: hi,
+                    };
+                    self.cache.insert(c, d.clone());
+                    d
+                }
+                None => {
+                    waiting += 1;
+                    *level = 0.0;
+                    continue;
+                }
+            };
+            // Nearest point of the patch to the eye: the viewer's plane position clamped into
+            // the square, at the height in the patch's range nearest the eye's.
+            let pv = frame.plane_of(nadir).unwrap_or_default();
+            let lo_xy = plane(c, 0.0, 0.0);
+            let hi_xy = plane(c, cells as f64, cells as f64);
+            let q = pv.clamp(lo_xy, hi_xy);
+            let h = view.camera.altitude_m.clamp(data.lo_m, data.hi_m);
+            let nearest = frame.unit_at(q) * (radius + h);
+            *level = continuous_level(
+                &data.deltas,
+                (nearest - eye_world).length(),
+                lambda,
+                settings.tau_px,
+            );
+        }
+        if !settings.geomorph {
+            // Without geomorphing a level switches whole: no tween factors.
+            for l in levels.iter_mut().filter(|l| **l >= 0.0) {
+                *l = l.floor();
+            }
+        }
+        restrict_levels(&mut levels, cols);
+        let borders = border_levels(&levels, cols);
+        let mut patches = Vec::new();
+        let mut outer_sides = Vec::new();
+        for i in (0..cols * cols).filter(|&i| visible[i]) {
+            patches.push(Patch {
+                corner: corner_of(i),
+                level: levels[i],
+                sides: borders[i],
+            });
+            let (x, y) = (i % cols, i / cols);
+            outer_sides.push([y == 0, x + 1 == cols, y + 1 == cols, x == 0]);
+        }
+        GeomipPlan {
+            frame,
+            spacing_m: spacing,
+            patches,
+            outer_sides,
+            square_m: [
+                plane(corner_of(0), 0.0, 0.0),
+                plane(corner_of(cols * cols - 1), cells as f64, cells as f64),
+            ],
+            waiting,
+        }
+    }
+}
+
+/// Height of the terrain at world unit vector `u` (the query's ground: every detail octave).
+fn height_at(query: &dyn TerrainQuery, u: DVec3) -> f64 {
+    let (phi, theta, _) = sphere::phi_theta_height_from_ecef_m(u, 1.0);
+    let (lat, lon) = sphere::lat_lon_deg_from_phi_theta(phi, theta);
+    query.ground_m(lat, lon).0
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geo::camera::Camera;
+    use crate::terrain::Terrain;
+
+    fn camera(height_m: f64, pitch_deg: f64) -> Camera {
+        Camera {
+            lat_deg: 45.65,
+            lon_deg: 10.65,
+            altitude_m: height_m,
+            heading_deg: 0.0,
+            pitch_deg,
+            roll_deg: 0.0,
+            fov_y_deg: 60.0,
+        }
+    }
+
+    #[test]
+    fn grid_follows_the_viewer_and_levels_grow_with_distance() {
+        let terrain = Terrain::analytic_earth();
+        let settings = GeomipSettings {
+            patches: 8,
+            ..Default::default()
+        };
+        let mut state = GeomipState::default();
+        let ground = terrain.height_at_lat_lon_m(45.65, 10.65);
+        let cam = camera(ground + 40.0, -20.0);
+        let view = ViewPlan::new(&cam, 640, 400, &terrain);
+        let plan = state.plan(&view, &settings, &terrain);
+        assert_eq!(plan.spacing_m, 8.0, "a quarter of 40 m, a power of two");
+        assert!(
+            !plan.patches.is_empty() && plan.patches.len() < 64,
+            "culled: {}",
+            plan.patches.len()
+        );
+        assert_eq!(plan.waiting, 0);
+        // The viewer lies inside the square.
+        let p = plan.frame.plane_of(view.nadir()).unwrap();
+        assert!(p.cmpgt(plan.square_m[0]).all() && p.cmplt(plan.square_m[1]).all());
+        // Nearest patches at the finest levels, the far ones coarser.
+        let by_dist = |patch: &Patch| {
+            let c = DVec2::new(patch.corner[0] as f64 + 8.0, patch.corner[1] as f64 + 8.0)
+                * plan.spacing_m;
+            (c - p).length()
+        };
+        let near = plan
+            .patches
+            .iter()
+            .min_by(|a, b| by_dist(a).total_cmp(&by_dist(b)))
+            .unwrap();
+        let far = plan
+            .patches
+            .iter()
+            .max_by(|a, b| by_dist(a).total_cmp(&by_dist(b)))
+            .unwrap();
+        assert!(near.level <= far.level, "{} vs {}", near.level, far.level);
+        // A small move keeps the anchor (and the lattice); a long one moves it by whole patches.
+        let moved = ViewPlan::new(
+            &Camera {
+                lat_deg: 45.6503,
+                ..cam
+            },
+            640,
+            400,
+            &terrain,
+        );
+        assert_eq!(state.plan(&moved, &settings, &terrain).frame, plan.frame);
+        let far_cam = Camera {
+            lat_deg: 45.66,
+            altitude_m: terrain.height_at_lat_lon_m(45.66, 10.65) + 40.0,
+            ..cam
+        };
+        let far_view = ViewPlan::new(&far_cam, 640, 400, &terrain);
+        let replanned = state.plan(&far_view, &settings, &terrain);
+        assert_ne!(replanned.frame, plan.frame);
+        let shift = plan.frame.plane_of(replanned.frame.anchor).unwrap() / (16.0 * 8.0);
+        assert!(
+            (shift - shift.round()).length() < 1e-6,
+            "whole patches: {shift}"
+        );
+    }
+}
