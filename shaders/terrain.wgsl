@@ -111,6 +111,9 @@ struct VertexOut {
     @location(5) inscatter: vec3<f32>,
     @location(6) view_t: vec3<f32>,
     @location(7) sun_t: vec3<f32>,
+    // Plane coordinates of a planar LOD method's frame (planar.wgsl): where the clipmap
+    // leaves the ground to it.
+    @location(8) plane_xy: vec2<f32>,
 }
 
 // Pipeline constants (render::terrain): the morph's code only in the pipeline that draws
@@ -126,6 +129,10 @@ override TRANSFORM: u32 = TRANSFORM_STABLE;
 override TEXTURES: bool = true;
 override WATER: bool = true;
 override SKY: bool = true;
+// A planar LOD method draws near the viewer: the clipmap's fragments in its square go
+// (planar.wgsl). Geomorphing of the geomipmapping patches.
+override CUT: bool = false;
+override GEOMORPH: bool = true;
 
 @group(0) @binding(0) var<uniform> frame: FrameUniforms;
 @group(0) @binding(1) var<uniform> levels: array<LevelUniforms, MAX_LEVELS>;
@@ -344,6 +351,10 @@ fn vs_main(v: RingVertex, @builtin(vertex_index) index: u32) -> VertexOut {
     out.coarse_blend = at.blend;
     out.level = v.level;
     out.rel = rel;
+    out.plane_xy = vec2<f32>(3.0e38);
+    if CUT {
+        out.plane_xy = plane_coords(p);
+    }
     out.inscatter = vec3<f32>(0.0);
     out.view_t = vec3<f32>(1.0);
     out.sun_t = vec3<f32>(1.0);
@@ -538,6 +549,9 @@ fn view_from_world(v: vec3<f32>) -> vec3<f32> {
 
 @fragment
 fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
+    if CUT && in_planar_cut(in.plane_xy) {
+        discard;
+    }
     // World-stable texture coordinates and their screen derivatives, first (derivatives
     // need uniform control flow). Eye-relative: small and precise near the viewer.
     let wrel = look_world(in.rel);

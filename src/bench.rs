@@ -66,6 +66,8 @@ pub struct BenchOptions {
     pub frame_interval: Option<std::time::Duration>,
     /// What of the look is drawn (timed with the frame; the error does not depend on it).
     pub look: LookSettings,
+    /// The LOD methods (`--mode` and geomipmapping's settings).
+    pub lod: crate::plan::LodSettings,
     /// Also time the same frames with the plain look (`LookSettings::plain`: no surface
     /// types, no atmosphere), named scenes only: the look's cost as a ratio in one run.
     pub compare_plain_look: bool,
@@ -96,7 +98,7 @@ impl FrameRecord {
             gpu_ms: f.gpu_ms,
             fill_gpu_ms: f.fill_gpu_ms,
             texels_filled: f.info.texels_filled,
-            triangles: f.info.draw.triangles,
+            triangles: f.info.triangles(),
             levels_drawn: if sel.any_drawn() {
                 sel.finest - sel.coarsest + 1
             } else {
@@ -185,6 +187,7 @@ pub fn run(
         options.stream,
     )?;
     renderer.set_look(&ctx.device, options.look);
+    renderer.set_lod(&ctx.device, options.lod);
     let timer = GpuTimer::new(ctx);
     let target = OffscreenFrame::new(&ctx.device, options.width, options.height);
     let ground = |lat: f64, lon: f64| terrain.height_at_lat_lon_m(lat, lon);
@@ -257,6 +260,7 @@ pub fn run(
             COLOR_FORMAT,
         )?;
         fresh.set_look(&ctx.device, options.look);
+        fresh.set_lod(&ctx.device, options.lod);
         let loaded = target.render(ctx, &mut fresh, &final_camera)?;
         final_vs_loaded_px = Some(pixels_differing(&last, &loaded));
         final_frame = Some(last);
@@ -851,6 +855,7 @@ mod view_tests {
             measure_error: false,
             frame_interval: None,
             look: crate::look::LookSettings::default(),
+            lod: Default::default(),
             compare_plain_look: false,
         }
     }
@@ -884,6 +889,7 @@ mod view_tests {
             stream: StreamSettings::default(),
             every: 1,
             look: crate::look::LookSettings::default(),
+            lod: Default::default(),
         };
         let names: Vec<String> = views(&o).unwrap().into_iter().map(|v| v.0).collect();
         assert_eq!(names, ["space", "ground", scenes::CAMERA_VIEW_NAME]);

@@ -145,6 +145,8 @@ pub struct ReportOptions {
     pub stream: StreamSettings,
     /// What of the look is drawn in every row.
     pub look: LookSettings,
+    /// The LOD methods every row starts from.
+    pub lod: crate::plan::LodSettings,
     /// The reference is cast at pixels whose x and y are multiples of this (1: every pixel;
     /// the error statistics then cover that sample at the full resolution's footprint).
     pub every: u32,
@@ -247,6 +249,7 @@ pub fn run(
             )?;
             r.overlays.levels = setting.change.overlay_levels();
             r.set_look(&ctx.device, options.look);
+            r.set_lod(&ctx.device, options.lod);
             r.settle(ctx, &camera, options.width, options.height, SETTLE_TIMEOUT);
             let mut timed = Vec::new();
             for i in 0..options.frames + 2 {
@@ -273,7 +276,7 @@ pub fn run(
             rows.push(Row {
                 scene: name.clone(),
                 setting: setting.change,
-                triangles: info.draw.triangles,
+                triangles: info.triangles(),
                 levels_drawn: info.selection.finest - info.selection.coarsest + 1,
                 cpu_ms: med(&|f| Some(f.cpu_ms)).unwrap_or(f64::NAN),
                 frame_ms: med(&|f| Some(f.frame_ms)).unwrap_or(f64::NAN),

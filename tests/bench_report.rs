@@ -31,6 +31,7 @@ fn bench_json_has_the_promised_fields() {
         stream: StreamSettings::default(),
         frame_interval: None::<Duration>,
         look: globe::look::LookSettings::default(),
+        lod: Default::default(),
         compare_plain_look: false,
         measure_error: true,
         passthrough: true,
@@ -97,6 +98,7 @@ fn report_covers_every_setting_and_writes_its_files() {
         stream: StreamSettings::default(),
         every: 1,
         look: globe::look::LookSettings::default(),
+        lod: Default::default(),
     };
     let rows = report::run(ctx, &terrain, &options, |step| eprintln!("{step:?}")).unwrap();
     let grid = report::settings_grid(&options.base);

@@ -216,6 +216,9 @@ impl TerrainQuery for Coarse<'_> {
     fn height_bounds_near_m(&self, u: glam::DVec3, angle_rad: f64) -> (f64, f64) {
         self.0.height_bounds_near_m(u, angle_rad)
     }
+    fn height_drawn_m(&self, u: glam::DVec3, arc_rad: f64) -> f64 {
+        TerrainQuery::height_drawn_m(self.0, u, arc_rad) + 50.0
+    }
 }
 
 #[test]

@@ -88,6 +88,7 @@ fn flight_options(latency_ms: u64, fail_rate: f64, cache_bytes: u64) -> BenchOpt
         },
         frame_interval: Some(Duration::from_millis(16)),
         look: globe::look::LookSettings::default(),
+        lod: Default::default(),
         compare_plain_look: false,
         measure_error: false,
         passthrough: false,

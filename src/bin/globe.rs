@@ -10,6 +10,8 @@ use globe::clipmap::selection::LevelStatus;
 use globe::clipmap::settings::DEFAULT_ERROR_BUDGET_PX;
 use globe::clipmap::{ClipmapSettings, TransformForm};
 use globe::look::{LookSettings, MipKind};
+use globe::plan::{LodMode, LodSettings};
+use globe::planar::geomip::GeomipSettings;
 use globe::procedural::DetailSpec;
 use globe::progress::Progress;
 use globe::render::offscreen::{COLOR_FORMAT, OffscreenFrame};
@@ -78,6 +80,8 @@ struct ReportArgs {
     dem: DemArgs,
     #[command(flatten)]
     look: LookArgs,
+    #[command(flatten)]
+    lod: LodArgs,
     #[command(flatten)]
     stream: StreamArgs,
 }
@@ -240,6 +244,58 @@ impl LookArgs {
     }
 }
 
+/// Which LOD method draws the ground near the viewer, and its settings.
+#[derive(Args, Clone, Debug)]
+struct LodArgs {
+    /// LOD method near the ground: `clipmap` (the spherical clipmap alone), `geomip`
+    /// (geomipmapping with geomorphing on the tangent plane around the viewer, the clipmap
+    /// beyond), `auto` (geomip below 1 000 m above the terrain, the clipmap alone above 1 500 m;
+    /// README "Close-up modes").
+    #[arg(long, value_name = "MODE", default_value = "clipmap")]
+    mode: ModeArg,
+    /// Geomipmapping's level threshold τ: the largest projected error a patch may show, pixels.
+    #[arg(long, value_name = "PX", default_value_t = 1.0)]
+    tau: f64,
+    /// Geomipmapping's patch size in vertices per side, 2^n + 1 (the paper's 17).
+    #[arg(long = "patch-size", value_name = "N", default_value_t = 17)]
+    patch_size: u32,
+    /// Geomipmapping's patches per side of the square around the viewer (even, 2 to 64); the
+    /// finest spacing is a sixteenth of the height above the terrain, so the square's side is
+    /// this × (N − 1) × that.
+    #[arg(long, value_name = "N", default_value_t = 32)]
+    patches: u32,
+    /// Geomorphing of the patches (off: levels switch whole and pop).
+    #[arg(long, value_name = "on|off", default_value = "on")]
+    geomorph: Switch,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+enum ModeArg {
+    Clipmap,
+    Geomip,
+    Auto,
+}
+
+impl LodArgs {
+    fn settings(&self) -> anyhow::Result<LodSettings> {
+        let geomip = GeomipSettings {
+            patch_size: self.patch_size,
+            patches: self.patches,
+            tau_px: self.tau,
+            geomorph: self.geomorph.on(),
+        };
+        geomip.validate()?;
+        Ok(LodSettings {
+            mode: match self.mode {
+                ModeArg::Clipmap => LodMode::Clipmap,
+                ModeArg::Geomip => LodMode::Geomip,
+                ModeArg::Auto => LodMode::Auto,
+            },
+            geomip,
+        })
+    }
+}
+
 /// How DEM tiles stream from the pyramid file, and faults to inject.
 #[derive(Args, Clone, Debug)]
 struct StreamArgs {
@@ -362,6 +418,8 @@ struct BenchArgs {
     #[command(flatten)]
     look: LookArgs,
     #[command(flatten)]
+    lod: LodArgs,
+    #[command(flatten)]
     stream: StreamArgs,
 }
 
@@ -383,6 +441,8 @@ struct ViewerArgs {
     dem: DemArgs,
     #[command(flatten)]
     look: LookArgs,
+    #[command(flatten)]
+    lod: LodArgs,
     #[command(flatten)]
     stream: StreamArgs,
 }
@@ -425,6 +485,8 @@ struct RenderArgs {
     dem: DemArgs,
     #[command(flatten)]
     look: LookArgs,
+    #[command(flatten)]
+    lod: LodArgs,
     #[command(flatten)]
     stream: StreamArgs,
 }
@@ -512,6 +574,7 @@ fn render(args: &RenderArgs) -> anyhow::Result<ExitCode> {
         TerrainRenderer::with_streaming(&ctx.device, settings, terrain, COLOR_FORMAT, stream)?;
     renderer.overlays.levels = args.overlay == Some(Overlay::Levels);
     renderer.set_look(&ctx.device, args.look.settings());
+    renderer.set_lod(&ctx.device, args.lod.settings()?);
     let camera = view.camera(|lat, lon| renderer.terrain_height_m(lat, lon));
     let target = OffscreenFrame::new(&ctx.device, args.width, args.height);
     let mut frame = if args.no_wait {
@@ -568,12 +631,18 @@ fn render(args: &RenderArgs) -> anyhow::Result<ExitCode> {
     );
     eprintln!(
         "triangles {} in {} draw calls; sectors drawn {}, culled {}; texels filled {}",
-        frame.info.draw.triangles,
+        frame.info.triangles(),
         frame.info.draw.ranges.len(),
         frame.info.draw.sectors_drawn,
         frame.info.draw.sectors_culled,
         frame.info.texels_filled
     );
+    if let Some(p) = &frame.info.planar {
+        eprintln!(
+            "geomipmapping: {} patches in view ({} triangles), finest spacing {} m",
+            p.patches, p.triangles, p.spacing_m
+        );
+    }
     eprintln!(
         "wrote {} ({}×{}) in {:.2} s",
         args.out.display(),
@@ -598,6 +667,7 @@ fn viewer(args: &ViewerArgs) -> anyhow::Result<ExitCode> {
         overlay_levels: args.overlay == Some(Overlay::Levels),
         terrain: args.dem.open()?,
         look: args.look.settings(),
+        lod: args.lod.settings()?,
         stream: args.stream.settings()?,
     };
     match globe::ui::run(options) {
@@ -648,6 +718,7 @@ fn bench(args: &BenchArgs) -> anyhow::Result<ExitCode> {
             measure_error: !args.no_error,
             passthrough: args.passthrough,
             look: args.look.settings(),
+            lod: args.lod.settings()?,
             compare_plain_look: args.plain_look,
             frame_interval: {
                 let default = if is_flight { 60.0 } else { 0.0 };
@@ -842,6 +913,7 @@ fn report(args: &ReportArgs) -> anyhow::Result<ExitCode> {
         base: args.mesh.settings()?,
         stream: args.stream.settings()?,
         look: args.look.settings(),
+        lod: args.lod.settings()?,
         every: args.every,
     };
     let started = Instant::now();

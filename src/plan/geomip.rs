@@ -4,14 +4,14 @@
 //! State carried from frame to frame ([`GeomipState`]): the tangent frame the lattice lives in
 //! (moved only when the viewer has gone half the grid's reach from its anchor, by a whole
 //! number of patches, so the lattice stays put on the ground), the finest spacing (a power of
-//! two near a quarter of the height above the terrain, changed with a factor-of-two hysteresis)
+//! two near a sixteenth of the height above the terrain, changed with a factor-of-two hysteresis)
 //! and each patch's δ_k, computed once from the terrain function when the patch first comes
 //! into view (a bounded number per frame; until then a patch draws at level 0, which has no
 //! error of its own).
 
 use std::collections::HashMap;
 
-use glam::{DVec2, DVec3};
+use glam::DVec2;
 
 use crate::clipmap::selection::{Frustum, Sphere};
 use crate::geo::sphere;
@@ -23,7 +23,7 @@ use crate::planar::geomip::{
 use super::{TerrainQuery, ViewPlan};
 
 /// Finest spacing = this × the height above the terrain, rounded to a power of two.
-pub const SPACING_PER_HEIGHT: f64 = 0.25;
+pub const SPACING_PER_HEIGHT: f64 = 1.0 / 16.0;
 /// Finest spacing limits, metres.
 pub const MIN_SPACING_M: f64 = 1.0 / 64.0;
 pub const MAX_SPACING_M: f64 = 4096.0;
@@ -44,6 +44,10 @@ struct PatchData {
     deltas: Vec<f64>,
     lo_m: f64,
     hi_m: f64,
+    /// The patch's nearest distance from the viewer (radians) when δ was measured: the detail
+    /// the GPU draws there grows as the viewer comes closer, so δ is measured again once the
+    /// distance has halved.
+    arc_rad: f64,
 }
 
 /// What geomipmapping draws this frame.
@@ -153,14 +157,21 @@ impl GeomipState {
                 continue;
             }
             visible[i] = true;
+            // Nearest point of the patch to the eye: the viewer's plane position clamped into
+            // the square (at the height in the patch's range nearest the eye's, below).
+            let pv = frame.plane_of(nadir).unwrap_or_default();
+            let q = pv.clamp(plane(c, 0.0, 0.0), plane(c, cells as f64, cells as f64));
+            let nearest_u = frame.unit_at(q);
+            let arc = sphere::great_circle_distance_m(nearest_u, nadir, 1.0);
+            let stale = known.as_ref().is_some_and(|d| arc < 0.5 * d.arc_rad);
             let data = match known {
-                Some(d) => d,
-                None if computed < NEW_PATCHES_PER_FRAME => {
+                Some(d) if !stale => d,
+                _ if computed < NEW_PATCHES_PER_FRAME => {
                     computed += 1;
                     let heights: Vec<f64> = (0..n * n)
                         .map(|v| {
                             let u = frame.unit_at(plane(c, (v % n) as f64, (v / n) as f64));
-                            height_at(query, u)
+                            query.height_drawn_m(u, sphere::great_circle_distance_m(u, nadir, 1.0))
                         })
                         .collect();
                     let (lo, hi) = heights
@@ -170,8 +181,14 @@ impl GeomipState {
                         deltas: patch_deltas(n, &heights),
                         lo_m: lo,
                         hi_m: hi,
+                        arc_rad: arc,
                     };
                     self.cache.insert(c, d.clone());
+                    d
+                }
+                Some(d) => {
+                    // Stale, over this frame's budget: its old δ until the next frame.
+                    waiting += 1;
                     d
                 }
                 None => {
@@ -180,14 +197,8 @@ impl GeomipState {
                     continue;
                 }
             };
-            // Nearest point of the patch to the eye: the viewer's plane position clamped into
-            // the square, at the height in the patch's range nearest the eye's.
-            let pv = frame.plane_of(nadir).unwrap_or_default();
-            let lo_xy = plane(c, 0.0, 0.0);
-            let hi_xy = plane(c, cells as f64, cells as f64);
-            let q = pv.clamp(lo_xy, hi_xy);
             let h = view.camera.altitude_m.clamp(data.lo_m, data.hi_m);
-            let nearest = frame.unit_at(q) * (radius + h);
+            let nearest = nearest_u * (radius + h);
             *level = continuous_level(
                 &data.deltas,
                 (nearest - eye_world).length(),
@@ -228,13 +239,6 @@ impl GeomipState {
     }
 }
 
-/// Height of the terrain at world unit vector `u` (the query's ground: every detail octave).
-fn height_at(query: &dyn TerrainQuery, u: DVec3) -> f64 {
-    let (phi, theta, _) = sphere::phi_theta_height_from_ecef_m(u, 1.0);
-    let (lat, lon) = sphere::lat_lon_deg_from_phi_theta(phi, theta);
-    query.ground_m(lat, lon).0
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -265,7 +269,7 @@ mod tests {
         let cam = camera(ground + 40.0, -20.0);
         let view = ViewPlan::new(&cam, 640, 400, &terrain);
         let plan = state.plan(&view, &settings, &terrain);
-        assert_eq!(plan.spacing_m, 8.0, "a quarter of 40 m, a power of two");
+        assert_eq!(plan.spacing_m, 2.0, "a sixteenth of 40 m, a power of two");
         assert!(
             !plan.patches.is_empty() && plan.patches.len() < 64,
             "culled: {}",
@@ -311,7 +315,7 @@ mod tests {
         let far_view = ViewPlan::new(&far_cam, 640, 400, &terrain);
         let replanned = state.plan(&far_view, &settings, &terrain);
         assert_ne!(replanned.frame, plan.frame);
-        let shift = plan.frame.plane_of(replanned.frame.anchor).unwrap() / (16.0 * 8.0);
+        let shift = plan.frame.plane_of(replanned.frame.anchor).unwrap() / (16.0 * plan.spacing_m);
         assert!(
             (shift - shift.round()).length() < 1e-6,
             "whole patches: {shift}"

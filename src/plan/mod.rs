@@ -30,6 +30,44 @@ use crate::terrain::Terrain;
 pub use clipmap::{ClipmapPlan, LevelFill};
 pub use geomip::{GeomipPlan, GeomipState};
 
+/// Which LOD method draws the ground near the viewer (`--mode`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum LodMode {
+    /// The spherical clipmap alone.
+    #[default]
+    Clipmap,
+    /// Geomipmapping with geomorphing near the viewer, the clipmap beyond.
+    Geomip,
+    /// Geomipmapping below [`AUTO_ON_BELOW_M`] above the terrain, the clipmap alone above
+    /// [`AUTO_OFF_ABOVE_M`] (between the two the previous frame's choice holds).
+    Auto,
+}
+
+/// `auto` switches to geomipmapping below this height above the terrain…
+pub const AUTO_ON_BELOW_M: f64 = 1000.0;
+/// …and back to the clipmap alone above this one.
+pub const AUTO_OFF_ABOVE_M: f64 = 1500.0;
+
+impl LodMode {
+    /// Whether a planar method draws this frame, given the height above the terrain and
+    /// whether one drew the frame before (`auto`'s hysteresis).
+    pub fn planar(self, height_above_terrain_m: f64, was_planar: bool) -> bool {
+        match self {
+            LodMode::Clipmap => false,
+            LodMode::Geomip => true,
+            LodMode::Auto if was_planar => height_above_terrain_m <= AUTO_OFF_ABOVE_M,
+            LodMode::Auto => height_above_terrain_m < AUTO_ON_BELOW_M,
+        }
+    }
+}
+
+/// The LOD methods' settings.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct LodSettings {
+    pub mode: LodMode,
+    pub geomip: crate::planar::geomip::GeomipSettings,
+}
+
 /// Direction to the sun in the viewer's local frame: 35° above the horizon in the south-east,
 /// so every named scene is lit from the same side (a fixed world sun would leave some dark).
 pub const SUN_ELEVATION_DEG: f64 = 35.0;
@@ -58,6 +96,9 @@ pub trait TerrainQuery {
     fn ground_m(&self, lat_deg: f64, lon_deg: f64) -> (f64, HeightSource);
     /// Heights bounding the terrain within `angle_rad` of the unit vector `u` (culling).
     fn height_bounds_near_m(&self, u: DVec3, angle_rad: f64) -> (f64, f64);
+    /// The height the GPU draws at unit vector `u`, `arc_rad` from the viewer: the detail's
+    /// octaves limited by the geometry rule λ(θ̃) there (what a close-up method's δ measures).
+    fn height_drawn_m(&self, u: DVec3, arc_rad: f64) -> f64;
 }
 
 impl TerrainQuery for Terrain {
@@ -75,6 +116,13 @@ impl TerrainQuery for Terrain {
     }
     fn height_bounds_near_m(&self, u: DVec3, angle_rad: f64) -> (f64, f64) {
         Terrain::height_bounds_near_m(self, u, angle_rad)
+    }
+    fn height_drawn_m(&self, u: DVec3, arc_rad: f64) -> f64 {
+        let base = self.base_height_m(u);
+        let detail = self
+            .detail()
+            .map_or(0.0, |d| d.height_m(u, d.lambda_at_angle(arc_rad)));
+        crate::terrain::with_water(base + detail, self.water_level_m())
     }
 }
 

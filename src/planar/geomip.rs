@@ -54,7 +54,7 @@ pub enum GeomipError {
     #[error("--patch-size {0}: a patch has 2^n + 1 vertices per side (5, 9, 17, 33 or 65)")]
     PatchSize(u32),
     #[error(
-        "--patches {0}: the patches per side of the square around the viewer must be even and 2 to 256"
+        "--patches {0}: the patches per side of the square around the viewer must be even, 2 to 64"
     )]
     Patches(u32),
     #[error("--tau {0}: the level threshold τ is a screen-space error in pixels and must be > 0")]
@@ -67,7 +67,7 @@ impl GeomipSettings {
         if !(4..=64).contains(&cells) || !cells.is_power_of_two() {
             return Err(GeomipError::PatchSize(self.patch_size));
         }
-        if !(2..=256).contains(&self.patches) || !self.patches.is_multiple_of(2) {
+        if !(2..=64).contains(&self.patches) || !self.patches.is_multiple_of(2) {
             return Err(GeomipError::Patches(self.patches));
         }
         if !(self.tau_px > 0.0 && self.tau_px.is_finite()) {
@@ -224,6 +224,27 @@ pub fn restrict_levels(levels: &mut [f64], cols: usize) {
     }
 }
 
+/// A skirt: a vertical strip hanging from border `side` (drawn at level k) down to lowered
+/// copies of its vertices (local index size² + side·size + t), both windings, so the grid's
+/// outer edge never shows a gap where the surface beyond lies lower.
+pub fn skirt_indices(size: u32, side: usize, k: u32) -> Vec<u32> {
+    let n = size - 1;
+    let s = 1u32 << k;
+    let border = |t: u32| match side {
+        SOUTH => t,
+        NORTH => t + n * size,
+        WEST => t * size,
+        _ => n + t * size,
+    };
+    let lowered = |t: u32| size * size + side as u32 * size + t;
+    let mut out = Vec::new();
+    for t in (0..n).step_by(s as usize) {
+        let (a, b, la, lb) = (border(t), border(t + s), lowered(t), lowered(t + s));
+        out.extend([a, b, lb, a, lb, la, a, lb, b, a, la, lb]);
+    }
+    out
+}
+
 /// Every patch's index list, for every interior level and border levels, in one static buffer.
 #[derive(Debug)]
 pub struct PatchMesh {
@@ -233,6 +254,8 @@ pub struct PatchMesh {
     pub vertices: Vec<[u32; 2]>,
     pub indices: Vec<u32>,
     ranges: Vec<Range<u32>>,
+    /// `skirts[side·(n + 1) + k]`: the skirt under border `side` drawn at level k.
+    skirts: Vec<Range<u32>>,
 }
 
 impl PatchMesh {
@@ -251,13 +274,27 @@ impl PatchMesh {
             }
             ranges.push(start..indices.len() as u32);
         }
+        let mut skirts = Vec::new();
+        for side in [SOUTH, EAST, NORTH, WEST] {
+            for k in 0..levels {
+                let start = indices.len() as u32;
+                indices.extend(skirt_indices(size, side, k));
+                skirts.push(start..indices.len() as u32);
+            }
+        }
         Self {
             size,
             max_level,
             vertices,
             indices,
             ranges,
+            skirts,
         }
+    }
+
+    /// Index range of the skirt under border `side` drawn at level `k`.
+    pub fn skirt(&self, side: usize, k: u32) -> Range<u32> {
+        self.skirts[side * (self.max_level as usize + 1) + k.min(self.max_level) as usize].clone()
     }
 
     /// Index range of a patch at interior level `k` with borders at `sides` (each ≥ k).
@@ -574,7 +611,8 @@ mod tests {
     /// Every edge shared by two triangles in opposite directions (or on the union's outline
     /// once), no vertex inside another triangle's edge (no T-junction), area = 5 patches.
     fn assert_watertight(tris: &[[(i64, i64); 3]], n: i64, what: &str) {
-        let mut edges: HashMap<((i64, i64), (i64, i64)), u32> = HashMap::new();
+        type Edge = ((i64, i64), (i64, i64));
+        let mut edges: HashMap<Edge, u32> = HashMap::new();
         let mut verts = HashSet::new();
         let mut area2 = 0i64;
         for t in tris {
@@ -701,7 +739,7 @@ mod tests {
             let e = GeomipSettings { tau_px: tau, ..ok }.validate().unwrap_err();
             assert!(e.to_string().starts_with("--tau"), "{e}");
         }
-        for patches in [0, 1, 3, 512] {
+        for patches in [0, 1, 3, 66, 512] {
             let e = GeomipSettings { patches, ..ok }.validate().unwrap_err();
             assert!(e.to_string().starts_with("--patches"), "{e}");
         }

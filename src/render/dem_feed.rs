@@ -551,6 +551,16 @@ impl TerrainQuery for DemFeed {
         };
         (with_water(h, self.water_level_m), source)
     }
+    fn height_drawn_m(&self, u: DVec3, arc_rad: f64) -> f64 {
+        let (phi, theta) = (u.y.atan2(u.x), u.x.hypot(u.y).atan2(u.z));
+        let (lat, lon) = sphere::lat_lon_deg_from_phi_theta(phi, theta);
+        let base = self.height_at_m(lat, lon);
+        let detail = self
+            .detail
+            .as_ref()
+            .map_or(0.0, |d| d.height_m(u, d.lambda_at_angle(arc_rad)));
+        with_water(base + detail, self.water_level_m)
+    }
     fn height_bounds_near_m(&self, u: DVec3, angle_rad: f64) -> (f64, f64) {
         let (lo, hi) = DemFeed::height_bounds_near_m(self, u, angle_rad);
         let b = self

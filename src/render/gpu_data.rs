@@ -15,7 +15,8 @@ use crate::clipmap::levels::{GridRect, LevelGrid};
 use crate::clipmap::{ClipmapSettings, RingVertex};
 use crate::geo::map_transform::{Stretch, TransformUniformsF32};
 use crate::look::{Atmosphere, LookSettings};
-use crate::plan::{ClipmapPlan, ViewPlan};
+use crate::plan::{ClipmapPlan, GeomipPlan, ViewPlan};
+use crate::planar::geomip::Patch;
 use crate::procedural::{Detail, LevelOctaves, MAX_OCTAVES, OctaveAnchorF32};
 use crate::terrain::analytic::{AnalyticPlanet, SCALES, WaveAt};
 
@@ -490,6 +491,82 @@ impl BumpUniforms {
     }
 }
 
+/// `PlanarUniforms` in `shaders/planar.wgsl`: the tangent frame of a planar LOD method in view
+/// space (the per-frame f64 → f32 step of `planar::LocalFrame::view_basis`) and the square the
+/// clipmap leaves to it.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct PlanarUniforms {
+    pub anchor: [f32; 4],
+    pub east: [f32; 4],
+    pub north: [f32; 4],
+    pub cut: [f32; 4],
+    pub spacing_m: f32,
+    pub patch_cells: u32,
+    pub skirt_m: f32,
+    pub drawing: u32,
+}
+
+/// `PatchGpu` in `shaders/planar.wgsl`: one geomipmapping patch of the frame.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct PatchGpu {
+    pub corner: [i32; 2],
+    pub level: f32,
+    pub _pad: u32,
+    pub sides: [f32; 4],
+}
+
+/// The clipmap's cut is the planar square shrunk by this fraction of its side on every edge:
+/// in the band between, both draw the same surface (their depths decide), so wherever the
+/// planar edge lies below the clipmap's surface the clipmap still covers the step.
+pub const PLANAR_OVERLAP: f64 = 1.0 / 32.0;
+
+impl PlanarUniforms {
+    /// Nothing planar this frame: the clipmap draws everywhere.
+    pub fn inactive() -> Self {
+        Self::zeroed()
+    }
+
+    /// The geomipmapping plan's frame in view space, its square and skirt depth.
+    pub fn from_geomip(view: &ViewPlan, plan: &GeomipPlan, patch_cells: u32) -> Self {
+        let view_from_world = view.camera.view_frame().world_from_view.transpose();
+        let [a, e, n] = plan.frame.view_basis(&view_from_world);
+        let v4 = |v: DVec3| [v.x as f32, v.y as f32, v.z as f32, 0.0];
+        let [lo, hi] = plan.square_m;
+        let band = (hi - lo) * PLANAR_OVERLAP;
+        let (clo, chi) = (lo + band, hi - band);
+        // Deep enough to hide any step between the two surfaces at the square's edge: the
+        // band's width (a slope of 1 across the band).
+        let skirt_m = band.x.max(band.y);
+        Self {
+            anchor: v4(a),
+            east: v4(e),
+            north: v4(n),
+            cut: [clo.x as f32, clo.y as f32, chi.x as f32, chi.y as f32],
+            spacing_m: plan.spacing_m as f32,
+            patch_cells,
+            skirt_m: skirt_m as f32,
+            drawing: 1,
+        }
+    }
+}
+
+impl PatchGpu {
+    pub fn new(patch: &Patch) -> Self {
+        Self {
+            corner: [patch.corner[0] as i32, patch.corner[1] as i32],
+            level: patch.level as f32,
+            _pad: 0,
+            sides: patch.sides.map(|s| s as f32),
+        }
+    }
+}
+
+gpu_struct!(PlanarUniforms as "PlanarUniforms" {
+    anchor, east, north, cut, spacing_m, patch_cells, skirt_m, drawing,
+});
+gpu_struct!(PatchGpu as "PatchGpu" { corner, level, sides });
 gpu_struct!(DetailOctaveParams as "DetailOctave" { m0, m1, m2, cell });
 gpu_struct!(BumpUniforms as "BumpUniforms" {
     octaves, amplitudes, sigma, lambda_px, world0, world1, world2,
@@ -589,9 +666,13 @@ pub fn pass_contracts() -> Vec<PassContract> {
                     ..RingVertex::layout()
                 },
                 LookUniforms::layout(),
+                PlanarUniforms::layout(),
+                PatchGpu::layout(),
             ],
             buffers: vec![
                 buffer(0, FrameUniforms::wgsl_type()),
+                buffer(13, PlanarUniforms::wgsl_type()),
+                buffer(14, "array<PatchGpu>".to_string()),
                 buffer(1, <[LevelUniforms; MAX_LEVELS as usize]>::wgsl_type()),
                 buffer(4, BumpUniforms::wgsl_type()),
                 buffer(5, "array<f32>".to_string()),

@@ -1,5 +1,5 @@
 //! Render plumbing (wgpu): device context, shader assembly, the terrain pass with its compute
-//! fill, and the offscreen target used by `globe render`, the tests and the benchmarks.
+//! fill, the planar LOD methods' resources, and the offscreen target used by `globe render`, the tests and the benchmarks.
 //!
 //! Precision boundary (DESIGN.md): everything arriving here is f64; the only f32 values the GPU
 //! sees are relative to the viewer (view-space offsets, heights, small map-space offsets).
@@ -12,6 +12,7 @@ pub mod gpu_data;
 pub mod look;
 pub mod normals;
 pub mod offscreen;
+pub mod planar;
 pub mod shader;
 pub mod terrain;
 pub mod tiles;

@@ -29,6 +29,8 @@ pub const FILL_ANALYTIC: &str = include_str!("../../shaders/fill_analytic.wgsl")
 pub const FILL_DEM: &str = include_str!("../../shaders/fill_dem.wgsl");
 pub const FILL_NORMALS: &str = include_str!("../../shaders/fill_normals.wgsl");
 pub const SKY: &str = include_str!("../../shaders/sky.wgsl");
+/// Appended to [`TERRAIN`] (one module): the planar LOD methods' vertex stages.
+pub const PLANAR: &str = include_str!("../../shaders/planar.wgsl");
 
 /// A `u32` constant shared by Rust and WGSL.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -84,8 +86,9 @@ pub fn assemble(pass: &str) -> String {
     } else {
         ""
     };
+    let planar = if pass == TERRAIN { PLANAR } else { "" };
     let source = format!(
-        "{}\n{TRIG}\n{MAP_TRANSFORM}\n{NOISE}\n{fill}\n{look}\n{pass}",
+        "{}\n{TRIG}\n{MAP_TRANSFORM}\n{NOISE}\n{fill}\n{look}\n{pass}\n{planar}",
         constants()
     );
     if coarse_trig_requested() {

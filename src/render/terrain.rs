@@ -13,7 +13,9 @@ use crate::clipmap::{ClipmapSettings, RingMesh, RingVertex};
 use crate::geo::camera::Camera;
 use crate::look::{Atmosphere, LookSettings};
 use crate::plan::clipmap::DensityMap;
-use crate::plan::{ClipmapPlan, HeightSource, TerrainQuery, ViewPlan};
+use crate::plan::{
+    ClipmapPlan, GeomipState, HeightSource, LodMode, LodSettings, TerrainQuery, ViewPlan,
+};
 use crate::stream::StreamSettings;
 use crate::terrain::{Base, Terrain};
 
@@ -26,6 +28,7 @@ use super::gpu_data::{
 };
 use super::look::LookResources;
 use super::normals::{NORMAL_FORMAT, NormalPass};
+use super::planar::{PlanarDraw, PlanarResources};
 use super::shader::{self, MAX_LEVELS};
 
 pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
@@ -49,13 +52,22 @@ pub struct FrameInfo {
     pub sky_linear: [f64; 3],
     /// The streaming pipeline's state after this frame (DEM terrain only).
     pub stream: Option<FeedFrame>,
+    /// What a planar LOD method draws near the viewer (None: the clipmap alone).
+    pub planar: Option<PlanarDraw>,
 }
 
 impl FrameInfo {
     /// True when nothing this view needs is still on its way (always, for the analytic
-    /// planet, which the GPU evaluates itself).
+    /// planet, which the GPU evaluates itself), planar patches' errors included.
     pub fn settled(&self) -> bool {
         self.stream.as_ref().is_none_or(|s| s.complete)
+            && self.planar.as_ref().is_none_or(|p| p.waiting == 0)
+    }
+
+    /// Triangles drawn: the clipmap's (those in a planar square included: they are cut per
+    /// fragment) and the planar method's.
+    pub fn triangles(&self) -> u64 {
+        self.draw.triangles + self.planar.as_ref().map_or(0, |p| p.triangles)
     }
 }
 
@@ -110,6 +122,21 @@ pub struct TerrainRenderer {
     /// Per-level world-frame normals (`render::normals`), filled after the heights.
     normals: wgpu::Texture,
     normal_pass: NormalPass,
+    /// Which LOD method draws near the ground (`set_lod`).
+    lod: LodSettings,
+    /// `auto`'s current choice (hysteresis).
+    auto_planar: bool,
+    geomip_state: GeomipState,
+    planar: PlanarResources,
+    /// The clipmap variants that cut out the planar square, and the geomipmapping pipeline
+    /// (built on first use).
+    planar_pipelines: Option<PlanarPipelines>,
+}
+
+/// Pipelines of a frame with a planar method.
+struct PlanarPipelines {
+    clipmap_cut: [wgpu::RenderPipeline; 3],
+    geomip: wgpu::RenderPipeline,
 }
 
 impl TerrainRenderer {
@@ -320,8 +347,12 @@ impl TerrainRenderer {
                     ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
                     count: None,
                 },
+                uniform_entry(13),
+                storage_entry(14, wgpu::ShaderStages::VERTEX),
             ],
         });
+        let lod = LodSettings::default();
+        let planar = PlanarResources::new(device, lod.geomip.patch_size);
         let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("terrain bind group"),
             layout: &layout,
@@ -377,6 +408,14 @@ impl TerrainRenderer {
                 wgpu::BindGroupEntry {
                     binding: 12,
                     resource: wgpu::BindingResource::Sampler(&look_resources.sampler),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 13,
+                    resource: planar.uniforms.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 14,
+                    resource: planar.patches.as_entire_binding(),
                 },
             ],
         });
@@ -450,7 +489,36 @@ impl TerrainRenderer {
             bump_buffer,
             normals,
             normal_pass,
+            lod,
+            auto_planar: false,
+            geomip_state: GeomipState::default(),
+            planar,
+            planar_pipelines: None,
         })
+    }
+
+    /// Which LOD method draws near the ground from the next frame on.
+    pub fn set_lod(&mut self, device: &wgpu::Device, lod: LodSettings) {
+        self.planar.set_patch_size(device, lod.geomip.patch_size);
+        if lod.geomip != self.lod.geomip {
+            self.geomip_state = GeomipState::default();
+        }
+        if lod.geomip.geomorph != self.lod.geomip.geomorph {
+            self.planar_pipelines = None;
+        }
+        if lod.mode != LodMode::Clipmap && self.planar_pipelines.is_none() {
+            self.planar_pipelines = Some(self.pipeline_parts.build_planar(
+                device,
+                self.look,
+                lod.geomip.geomorph,
+            ));
+        }
+        self.lod = lod;
+    }
+
+    /// The LOD methods' settings.
+    pub fn lod(&self) -> LodSettings {
+        self.lod
     }
 
     /// Replaces the procedural detail (the editor's change: same relief map size, other
@@ -765,6 +833,23 @@ impl TerrainRenderer {
             self.draw_all_sectors,
         );
 
+        // A planar method near the viewer (its heights come from the levels just filled).
+        let planar_on = self
+            .lod
+            .mode
+            .planar(view.height_above_terrain_m, self.auto_planar)
+            && self.planar_pipelines.is_some();
+        self.auto_planar = planar_on;
+        let planar = if planar_on {
+            let mut state = std::mem::take(&mut self.geomip_state);
+            let plan = state.plan(&view, &self.lod.geomip, self.query());
+            self.geomip_state = state;
+            Some(self.planar.write_geomip(queue, &view, &plan))
+        } else {
+            self.planar.write_inactive(queue);
+            None
+        };
+
         let levels =
             gpu_data::level_uniforms(&view, &self.grids, &clipmap.densities, detail, blend);
         queue.write_buffer(&self.levels_buffer, 0, bytemuck::cast_slice(&levels));
@@ -802,6 +887,7 @@ impl TerrainRenderer {
             ground_source: view.ground_source,
             sky_linear: view.sky_linear,
             stream,
+            planar,
         }
     }
 
@@ -816,6 +902,13 @@ impl TerrainRenderer {
         let compiled = |l: LookSettings| (l.textures, l.sky);
         if compiled(look) != compiled(self.look) {
             (self.pipelines, self.passthrough) = self.pipeline_parts.build(device, look);
+            if self.planar_pipelines.is_some() {
+                self.planar_pipelines = Some(self.pipeline_parts.build_planar(
+                    device,
+                    look,
+                    self.lod.geomip.geomorph,
+                ));
+            }
         }
         self.look = look;
     }
@@ -874,12 +967,18 @@ impl TerrainRenderer {
         pass.set_vertex_buffer(0, self.vertex_buffer.slice(..));
         pass.set_index_buffer(self.index_buffer.slice(..), wgpu::IndexFormat::Uint32);
         let mut current = None;
+        // With a planar method the clipmap leaves its square out.
+        let planar = match (&info.planar, &self.planar_pipelines) {
+            (Some(draw), Some(pipelines)) if !self.use_passthrough => Some((draw, pipelines)),
+            _ => None,
+        };
+        let clipmap = planar.map_or(&self.pipelines, |(_, p)| &p.clipmap_cut);
         for (range, &variant) in info.draw.ranges.iter().zip(&info.draw.variants) {
             if current != Some(variant) {
                 pass.set_pipeline(if self.use_passthrough {
                     &self.passthrough
                 } else {
-                    &self.pipelines[match variant {
+                    &clipmap[match variant {
                         Variant::Plain => 0,
                         Variant::Blend => 1,
                         Variant::Morph => 2,
@@ -888,6 +987,16 @@ impl TerrainRenderer {
                 current = Some(variant);
             }
             pass.draw_indexed(range.clone(), 0, 0..1);
+        }
+        if let Some((draw, pipelines)) = planar {
+            pass.set_pipeline(&pipelines.geomip);
+            pass.set_index_buffer(
+                self.planar.index_buffer().slice(..),
+                wgpu::IndexFormat::Uint32,
+            );
+            for (range, patch) in &draw.draws {
+                pass.draw_indexed(range.clone(), 0, *patch..*patch + 1);
+            }
         }
         if self.look.sky && !self.use_passthrough {
             self.look_resources.draw_sky(pass);
@@ -907,6 +1016,131 @@ struct PipelineParts {
 }
 
 impl PipelineParts {
+    /// One pipeline of terrain.wgsl (planar.wgsl appended): `ring_vertices` feeds the ring
+    /// mesh's vertex buffer (the planar methods index their lattice instead).
+    #[allow(clippy::too_many_arguments)]
+    fn pipeline(
+        &self,
+        device: &wgpu::Device,
+        label: &str,
+        vs: &str,
+        fs: &str,
+        constants: &[(&str, f64)],
+        ring_vertices: bool,
+        cull_mode: Option<wgpu::Face>,
+    ) -> wgpu::RenderPipeline {
+        let ring = [Some(wgpu::VertexBufferLayout {
+            array_stride: std::mem::size_of::<RingVertex>() as u64,
+            step_mode: wgpu::VertexStepMode::Vertex,
+            attributes: &RING_VERTEX_ATTRIBUTES,
+        })];
+        device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some(label),
+            layout: Some(&self.layout),
+            vertex: wgpu::VertexState {
+                module: &self.module,
+                entry_point: Some(vs),
+                compilation_options: wgpu::PipelineCompilationOptions {
+                    constants,
+                    ..Default::default()
+                },
+                buffers: if ring_vertices { &ring } else { &[] },
+            },
+            primitive: wgpu::PrimitiveState {
+                topology: wgpu::PrimitiveTopology::TriangleList,
+                front_face: wgpu::FrontFace::Ccw,
+                cull_mode,
+                ..Default::default()
+            },
+            depth_stencil: Some(wgpu::DepthStencilState {
+                format: DEPTH_FORMAT,
+                depth_write_enabled: Some(true),
+                // Reversed-Z: nearer is larger.
+                depth_compare: Some(wgpu::CompareFunction::Greater),
+                stencil: Default::default(),
+                bias: Default::default(),
+            }),
+            multisample: Default::default(),
+            fragment: Some(wgpu::FragmentState {
+                module: &self.module,
+                entry_point: Some(fs),
+                compilation_options: wgpu::PipelineCompilationOptions {
+                    constants,
+                    ..Default::default()
+                },
+                targets: &[Some(wgpu::ColorTargetState {
+                    format: self.color_format,
+                    blend: None,
+                    write_mask: wgpu::ColorWrites::ALL,
+                })],
+            }),
+            multiview_mask: None,
+            cache: None,
+        })
+    }
+
+    /// The look's and terrain's pipeline constants, with the clipmap's `MORPH` and `BLEND`.
+    fn constants(
+        &self,
+        look: LookSettings,
+        morph: bool,
+        blend: bool,
+        cut: bool,
+    ) -> Vec<(&'static str, f64)> {
+        let flag = |on: bool| if on { 1.0 } else { 0.0 };
+        vec![
+            ("MORPH", flag(morph)),
+            ("BLEND", flag(blend)),
+            ("DETAIL", flag(self.detail_on)),
+            ("TRANSFORM", self.form as f64),
+            ("TEXTURES", flag(look.textures)),
+            ("WATER", flag(self.water_on)),
+            ("SKY", flag(look.sky)),
+            ("CUT", flag(cut)),
+        ]
+    }
+
+    /// The clipmap's three variants cutting out a planar square, and geomipmapping's pipeline
+    /// (the same fragment stage: the same shading wherever a fragment comes from).
+    fn build_planar(
+        &self,
+        device: &wgpu::Device,
+        look: LookSettings,
+        geomorph: bool,
+    ) -> PlanarPipelines {
+        let variant = |label, morph, blend| {
+            let c = self.constants(look, morph, blend, true);
+            self.pipeline(
+                device,
+                label,
+                "vs_main",
+                "fs_main",
+                &c,
+                true,
+                Some(wgpu::Face::Back),
+            )
+        };
+        let mut c = self.constants(look, false, true, false);
+        c.push(("GEOMORPH", if geomorph { 1.0 } else { 0.0 }));
+        PlanarPipelines {
+            clipmap_cut: [
+                variant("terrain pipeline, cut", false, false),
+                variant("terrain pipeline (blend band), cut", false, true),
+                variant("terrain pipeline (morphing levels), cut", true, true),
+            ],
+            // Skirts are drawn with both windings; the patches are counter-clockwise.
+            geomip: self.pipeline(
+                device,
+                "geomipmapping pipeline",
+                "vs_geomip",
+                "fs_main",
+                &c,
+                false,
+                Some(wgpu::Face::Back),
+            ),
+        }
+    }
+
     /// The three terrain variants (plain, blend band, morphing levels) and the pass-through.
     /// Pipeline constants of terrain.wgsl: code a pipeline's draws cannot need is compiled
     /// out (a CPU rasteriser runs untaken branches), the look's parts that are off included.
@@ -915,82 +1149,31 @@ impl PipelineParts {
         device: &wgpu::Device,
         look: LookSettings,
     ) -> ([wgpu::RenderPipeline; 3], wgpu::RenderPipeline) {
-        let flag = |on: bool| if on { 1.0 } else { 0.0 };
-        let make_pipeline = |label, vs, fs, constants: &[(&str, f64)]| {
-            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-                label: Some(label),
-                layout: Some(&self.layout),
-                vertex: wgpu::VertexState {
-                    module: &self.module,
-                    entry_point: Some(vs),
-                    compilation_options: wgpu::PipelineCompilationOptions {
-                        constants,
-                        ..Default::default()
-                    },
-                    buffers: &[Some(wgpu::VertexBufferLayout {
-                        array_stride: std::mem::size_of::<RingVertex>() as u64,
-                        step_mode: wgpu::VertexStepMode::Vertex,
-                        attributes: &RING_VERTEX_ATTRIBUTES,
-                    })],
-                },
-                primitive: wgpu::PrimitiveState {
-                    topology: wgpu::PrimitiveTopology::TriangleList,
-                    front_face: wgpu::FrontFace::Ccw,
-                    cull_mode: Some(wgpu::Face::Back),
-                    ..Default::default()
-                },
-                depth_stencil: Some(wgpu::DepthStencilState {
-                    format: DEPTH_FORMAT,
-                    depth_write_enabled: Some(true),
-                    // Reversed-Z: nearer is larger.
-                    depth_compare: Some(wgpu::CompareFunction::Greater),
-                    stencil: Default::default(),
-                    bias: Default::default(),
-                }),
-                multisample: Default::default(),
-                fragment: Some(wgpu::FragmentState {
-                    module: &self.module,
-                    entry_point: Some(fs),
-                    compilation_options: wgpu::PipelineCompilationOptions {
-                        constants,
-                        ..Default::default()
-                    },
-                    targets: &[Some(wgpu::ColorTargetState {
-                        format: self.color_format,
-                        blend: None,
-                        write_mask: wgpu::ColorWrites::ALL,
-                    })],
-                }),
-                multiview_mask: None,
-                cache: None,
-            })
-        };
-        let variant = |label, morph: f64, blend: f64| {
-            make_pipeline(
+        let variant = |label, morph: bool, blend: bool| {
+            let c = self.constants(look, morph, blend, false);
+            self.pipeline(
+                device,
                 label,
                 "vs_main",
                 "fs_main",
-                &[
-                    ("MORPH", morph),
-                    ("BLEND", blend),
-                    ("DETAIL", flag(self.detail_on)),
-                    ("TRANSFORM", self.form as f64),
-                    ("TEXTURES", flag(look.textures)),
-                    ("WATER", flag(self.water_on)),
-                    ("SKY", flag(look.sky)),
-                ],
+                &c,
+                true,
+                Some(wgpu::Face::Back),
             )
         };
         let pipelines = [
-            variant("terrain pipeline", 0.0, 0.0),
-            variant("terrain pipeline (blend band)", 0.0, 1.0),
-            variant("terrain pipeline (morphing levels)", 1.0, 1.0),
+            variant("terrain pipeline", false, false),
+            variant("terrain pipeline (blend band)", false, true),
+            variant("terrain pipeline (morphing levels)", true, true),
         ];
-        let passthrough = make_pipeline(
+        let passthrough = self.pipeline(
+            device,
             "pass-through pipeline",
             "vs_passthrough",
             "fs_passthrough",
             &[],
+            true,
+            Some(wgpu::Face::Back),
         );
         (pipelines, passthrough)
     }

@@ -647,6 +647,7 @@ impl ApplicationHandler for App {
         ) {
             Ok(mut gpu) => {
                 gpu.terrain.set_look(&gpu.ctx.device, self.options.look);
+                gpu.terrain.set_lod(&gpu.ctx.device, self.options.lod);
                 gpu.window.request_redraw();
                 self.gpu = Some(gpu);
             }

@@ -147,6 +147,7 @@ impl Gpu {
         }
         renderer.overlays = self.terrain.overlays;
         renderer.set_look(device, self.terrain.look());
+        renderer.set_lod(device, self.terrain.lod());
         Ok(renderer)
     }
 

@@ -52,6 +52,8 @@ pub struct ViewerOptions {
     pub stream: crate::stream::StreamSettings,
     /// What of the look is drawn (README "The look").
     pub look: crate::look::LookSettings,
+    /// Which LOD method draws the ground near the viewer (`--mode`).
+    pub lod: crate::plan::LodSettings,
 }
 
 impl Default for ViewerOptions {
@@ -63,6 +65,7 @@ impl Default for ViewerOptions {
             terrain: crate::terrain::Terrain::analytic_earth(),
             stream: crate::stream::StreamSettings::default(),
             look: crate::look::LookSettings::default(),
+            lod: crate::plan::LodSettings::default(),
         }
     }
 }

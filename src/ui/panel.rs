@@ -488,7 +488,7 @@ fn frame_section(ui: &mut egui::Ui, readout: &Readout<'_>) {
     let sel = &info.selection;
     ui.label(format!(
         "triangles drawn: {}",
-        group_digits(info.draw.triangles)
+        group_digits(info.triangles())
     ));
     ui.label(format!(
         "sectors drawn / culled: {} / {}",
@@ -759,6 +759,7 @@ mod tests {
             ground_source: HeightSource::Tiles,
             sky_linear: [0.0; 3],
             stream: Some(Default::default()),
+            planar: None,
         };
         let stats = FrameStats { frame_ms: 16.0 };
         let mut panel = Panel::new(&settings);

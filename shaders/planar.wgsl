@@ -1,0 +1,231 @@
+// Close-up LOD methods on the tangent plane (planar module docs): geomipmapping's patches
+// (geomipmapping-geomorphing.md), placed on the same terrain function as the clipmap's rings.
+//
+// Appended to terrain.wgsl (same module: the level textures, `place`, VertexOut, fs_main).
+// A plane point (x, y) metres from the anchor goes to the sphere by the gnomonic map
+// p̃ = normalise(a + e·x/R + n·y/R), with a, e, n the anchor and its axes in view space
+// (f64 → f32 once per frame, planar::LocalFrame::view_basis); from p̃ on the vertex is a clipmap
+// vertex: the level whose ring holds its θ̃, the map transform, the height with the coarser
+// level's blend, the camera-relative position.
+
+// Rust twin: render::gpu_data::PlanarUniforms.
+struct PlanarUniforms {
+    anchor: vec4<f32>,
+    east: vec4<f32>,
+    north: vec4<f32>,
+    // The clipmap's fragments inside this square of the plane (min xy, max xy) are not drawn:
+    // the planar mesh covers it (and a band beyond, where both draw the same surface).
+    cut: vec4<f32>,
+    spacing_m: f32,
+    patch_cells: u32,
+    skirt_m: f32,
+    // 1 when a planar mode draws this frame (the clipmap then cuts its square out).
+    drawing: u32,
+}
+
+// Rust twin: render::gpu_data::PatchGpu. One geomipmapping patch of this frame.
+struct PatchGpu {
+    // Lattice coordinates of its south-west corner (units of spacing_m).
+    corner: vec2<i32>,
+    // Continuous level ℓ = k + tween factor (planar::geomip::continuous_level).
+    level: f32,
+    _pad: u32,
+    // Border levels ℓ_e (south, east, north, west).
+    sides: vec4<f32>,
+}
+
+@group(0) @binding(13) var<uniform> planar: PlanarUniforms;
+@group(0) @binding(14) var<storage, read> patches: array<PatchGpu>;
+
+// Plane coordinates of view-space unit vector u (the inverse of the gnomonic map); far from
+// the anchor's hemisphere, a point no square contains.
+fn plane_coords(u: vec3<f32>) -> vec2<f32> {
+    let d = dot(u, planar.anchor.xyz);
+    if d <= 1e-3 {
+        return vec2<f32>(3.0e38);
+    }
+    return frame.radius_m * vec2<f32>(dot(u, planar.east.xyz), dot(u, planar.north.xyz)) / d;
+}
+
+// The clipmap's fragment lies in the square a planar mode draws.
+fn in_planar_cut(q: vec2<f32>) -> bool {
+    return planar.drawing != 0u && all(q > planar.cut.xy) && all(q < planar.cut.zw);
+}
+
+// A plane point as a clipmap vertex would place it.
+struct PlanarPoint {
+    p: vec3<f32>,
+    one_minus_cos: f32,
+    level: u32,
+    at: Placed,
+}
+
+fn planar_point(q: vec2<f32>) -> PlanarPoint {
+    var out: PlanarPoint;
+    let r = frame.radius_m;
+    out.p = normalize(planar.anchor.xyz + planar.east.xyz * (q.x / r) + planar.north.xyz * (q.y / r));
+    let s2 = dot(out.p.xy, out.p.xy);
+    // 1 − cos θ̃ = |p̃xy|²/(1 + p̃z): no cancellation (DESIGN.md).
+    out.one_minus_cos = s2 / (1.0 + out.p.z);
+    let theta = atan2(sqrt(s2), out.p.z);
+    // Level i holds θ̃ ∈ (2^−(i+1)π, 2^−iπ], ring_t = log2(2^−iπ/θ̃) (clipmap::mesh).
+    let lf = log2(3.14159265 / max(theta, 1e-30));
+    var level = u32(clamp(floor(lf), f32(frame.coarsest_level), f32(frame.finest_level)));
+    var ring_t = clamp(lf - f32(level), 0.0, 1.0);
+    if lf >= f32(frame.finest_level) + 1.0 {
+        ring_t = 1.0;
+    }
+    out.level = level;
+    out.at = place(out.p, 0.0, level, ring_t, theta);
+    return out;
+}
+
+// Height of lattice point (x, y) of a patch (local lattice units).
+fn lattice_height(c: vec2<i32>, x: u32, y: u32) -> f32 {
+    let q = vec2<f32>(c + vec2<i32>(i32(x), i32(y))) * planar.spacing_m;
+    return planar_point(q).at.h;
+}
+
+// Lattice point t along border `side` of a patch of n cells (twin: planar::geomip).
+fn border_point(side: u32, t: u32, n: u32) -> vec2<u32> {
+    switch side {
+        case 0u: { return vec2<u32>(t, 0u); }
+        case 1u: { return vec2<u32>(n, t); }
+        case 2u: { return vec2<u32>(t, n); }
+        default: { return vec2<u32>(0u, t); }
+    }
+}
+
+fn border_of(x: u32, y: u32, n: u32) -> u32 {
+    if y == 0u { return 0u; }
+    if y == n { return 2u; }
+    if x == 0u { return 3u; }
+    if x == n { return 1u; }
+    return 4u;
+}
+
+// A border's vertex at t as drawn: morphed along the border by its tween factor.
+fn border_vertex(c: vec2<i32>, side: u32, t: u32, n: u32, s: u32, f: f32) -> f32 {
+    let p = border_point(side, t, n);
+    let here = lattice_height(c, p.x, p.y);
+    if ((t / s) & 1u) == 0u || f <= 0.0 || s >= n {
+        return here;
+    }
+    let a = border_point(side, t - s, n);
+    let b = border_point(side, t + s, n);
+    return mix(here, 0.5 * (lattice_height(c, a.x, a.y) + lattice_height(c, b.x, b.y)), f);
+}
+
+// The border `side` as drawn at t (linear between its vertices): twin planar::geomip::border_height.
+fn border_height(c: vec2<i32>, pd: PatchGpu, side: u32, t: u32, n: u32) -> f32 {
+    let le = pd.sides[side];
+    let ke = u32(floor(le));
+    let s = 1u << ke;
+    let f = le - floor(le);
+    let t0 = t / s * s;
+    let h0 = border_vertex(c, side, t0, n, s, f);
+    if t0 == t {
+        return h0;
+    }
+    let h1 = border_vertex(c, side, t0 + s, n, s, f);
+    return mix(h0, h1, f32(t - t0) / f32(s));
+}
+
+// A morph target's neighbour as drawn: on a border coarser than the interior, that border's line.
+fn drawn_neighbour(c: vec2<i32>, pd: PatchGpu, k: u32, x: u32, y: u32, n: u32) -> f32 {
+    let side = border_of(x, y, n);
+    if side < 4u && u32(floor(pd.sides[side])) > k {
+        let t = select(y, x, side == 0u || side == 2u);
+        return border_height(c, pd, side, t, n);
+    }
+    return lattice_height(c, x, y);
+}
+
+// Geomipmapping (twin: planar::geomip::morphed_height): vertex_index is the local lattice
+// index (i + j·(n + 1)), or past (n + 1)² a skirt's lowered copy of border vertex t of side s
+// ((n + 1)² + s·(n + 1) + t); instance_index picks the patch.
+@vertex
+fn vs_geomip(@builtin(vertex_index) index: u32, @builtin(instance_index) instance: u32) -> VertexOut {
+    let pd = patches[instance];
+    let n = planar.patch_cells;
+    let size = n + 1u;
+    var x = index % size;
+    var y = index / size;
+    var skirt = false;
+    if index >= size * size {
+        let j = index - size * size;
+        let p = border_point(j / size, j % size, n);
+        x = p.x;
+        y = p.y;
+        skirt = true;
+    }
+    let c = pd.corner;
+    let q = vec2<f32>(c + vec2<i32>(i32(x), i32(y))) * planar.spacing_m;
+    let pt = planar_point(q);
+    var h = pt.at.h;
+    if GEOMORPH {
+        let side = border_of(x, y, n);
+        if side < 4u {
+            h = border_height(c, pd, side, select(y, x, side == 0u || side == 2u), n);
+        } else {
+            let k = u32(floor(pd.level));
+            let s = 1u << k;
+            let f = pd.level - floor(pd.level);
+            let odd_x = ((x / s) & 1u) == 1u;
+            let odd_y = ((y / s) & 1u) == 1u;
+            if f > 0.0 && s < n && (odd_x || odd_y) {
+                var sum_t: f32;
+                if odd_x && odd_y {
+                    // The coarser quad's diagonal (4-8 pattern: planar::geomip::main_diagonal).
+                    let on_main = (((x - s) / (2u * s) + (y - s) / (2u * s)) & 1u) == 0u;
+                    if on_main {
+                        sum_t = drawn_neighbour(c, pd, k, x - s, y - s, n) + drawn_neighbour(c, pd, k, x + s, y + s, n);
+                    } else {
+                        sum_t = drawn_neighbour(c, pd, k, x - s, y + s, n) + drawn_neighbour(c, pd, k, x + s, y - s, n);
+                    }
+                } else if odd_x {
+                    sum_t = drawn_neighbour(c, pd, k, x - s, y, n) + drawn_neighbour(c, pd, k, x + s, y, n);
+                } else {
+                    sum_t = drawn_neighbour(c, pd, k, x, y - s, n) + drawn_neighbour(c, pd, k, x, y + s, n);
+                }
+                h = mix(h, 0.5 * sum_t, f);
+            }
+        }
+    }
+    if skirt {
+        h -= planar.skirt_m;
+    }
+
+    // Δφ near the patch's own: a patch around a pole must not interpolate across the ±π cut.
+    var d = pt.at.d;
+    let centre = planar_point(vec2<f32>(c + vec2<i32>(i32(n / 2u))) * planar.spacing_m).at.d;
+    d.x = centre.x + (d.x - centre.x) - 6.28318531 * round((d.x - centre.x) / 6.28318531);
+
+    let p = pt.p;
+    let r = frame.radius_m + h;
+    let rel = vec3<f32>(
+        r * p.x,
+        r * p.y,
+        ((h - frame.eye_height_m) - frame.eye_height_lo_m) - r * pt.one_minus_cos,
+    );
+    var out: VertexOut;
+    out.clip = frame.clip_from_view * vec4<f32>(rel, 1.0);
+    out.map_pos = d;
+    out.p_tilde = p;
+    out.coarse_blend = pt.at.blend;
+    out.level = pt.level;
+    out.rel = rel;
+    out.plane_xy = q;
+    out.inscatter = vec3<f32>(0.0);
+    out.view_t = vec3<f32>(1.0);
+    out.sun_t = vec3<f32>(1.0);
+    if SKY {
+        let eye = vec3<f32>(0.0, 0.0, look.eye_radius_m);
+        let dist = length(rel);
+        let s = atmosphere_scatter(eye, rel / max(dist, 1e-6), dist, look.sun.xyz, 6u);
+        out.inscatter = s.inscatter;
+        out.view_t = s.transmittance;
+        out.sun_t = sun_transmittance(eye + rel, look.sun.xyz);
+    }
+    return out;
+}

@@ -1,0 +1,133 @@
+//! GPU resources of the planar LOD methods (`planar`, `plan::geomip`): the patch index buffer
+//! (every interior and border level combination, and the skirts), the frame's patches and the
+//! tangent frame's uniforms. The pipelines that draw them are built with the terrain's
+//! (`render::terrain`), from the same module (shaders/planar.wgsl is appended to terrain.wgsl).
+
+use std::ops::Range;
+
+use wgpu::util::DeviceExt;
+
+use crate::plan::{GeomipPlan, ViewPlan};
+use crate::planar::geomip::{PatchMesh, SOUTH, WEST};
+
+use super::gpu_data::{PatchGpu, PlanarUniforms};
+
+/// Patches a frame can hold (64 × 64: `--patches` at most 64).
+pub const MAX_PATCHES: usize = 64 * 64;
+
+/// What the planar method draws this frame.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct PlanarDraw {
+    /// Index ranges of the planar index buffer and the patch (instance) each draws.
+    pub draws: Vec<(Range<u32>, u32)>,
+    /// Triangles drawn (skirts included).
+    pub triangles: u64,
+    /// Patches drawn, and those in view still waiting for their δ (drawn at level 0).
+    pub patches: usize,
+    pub waiting: usize,
+    /// Finest lattice spacing, metres.
+    pub spacing_m: f64,
+}
+
+pub struct PlanarResources {
+    pub uniforms: wgpu::Buffer,
+    pub patches: wgpu::Buffer,
+    mesh: PatchMesh,
+    index_buffer: wgpu::Buffer,
+}
+
+impl PlanarResources {
+    pub fn new(device: &wgpu::Device, patch_size: u32) -> Self {
+        let uniforms = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("planar uniforms"),
+            contents: bytemuck::bytes_of(&PlanarUniforms::inactive()),
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        });
+        let patches = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("geomipmapping patches"),
+            size: (MAX_PATCHES * std::mem::size_of::<PatchGpu>()) as u64,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let (mesh, index_buffer) = Self::mesh(device, patch_size);
+        Self {
+            uniforms,
+            patches,
+            mesh,
+            index_buffer,
+        }
+    }
+
+    fn mesh(device: &wgpu::Device, patch_size: u32) -> (PatchMesh, wgpu::Buffer) {
+        let mesh = PatchMesh::build(patch_size);
+        let buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("geomipmapping indices"),
+            contents: bytemuck::cast_slice(&mesh.indices),
+            usage: wgpu::BufferUsages::INDEX,
+        });
+        (mesh, buffer)
+    }
+
+    /// Rebuilds the index buffer for another patch size.
+    pub fn set_patch_size(&mut self, device: &wgpu::Device, patch_size: u32) {
+        if self.mesh.size != patch_size {
+            (self.mesh, self.index_buffer) = Self::mesh(device, patch_size);
+        }
+    }
+
+    pub fn index_buffer(&self) -> &wgpu::Buffer {
+        &self.index_buffer
+    }
+
+    /// Nothing planar this frame.
+    pub fn write_inactive(&self, queue: &wgpu::Queue) {
+        queue.write_buffer(
+            &self.uniforms,
+            0,
+            bytemuck::bytes_of(&PlanarUniforms::inactive()),
+        );
+    }
+
+    /// Writes the plan's frame and patches (the f64 → f32 step) and lists its draws.
+    pub fn write_geomip(
+        &self,
+        queue: &wgpu::Queue,
+        view: &ViewPlan,
+        plan: &GeomipPlan,
+    ) -> PlanarDraw {
+        let cells = self.mesh.size - 1;
+        let uniforms = PlanarUniforms::from_geomip(view, plan, cells);
+        queue.write_buffer(&self.uniforms, 0, bytemuck::bytes_of(&uniforms));
+        let patches: Vec<PatchGpu> = plan
+            .patches
+            .iter()
+            .take(MAX_PATCHES)
+            .map(PatchGpu::new)
+            .collect();
+        queue.write_buffer(&self.patches, 0, bytemuck::cast_slice(&patches));
+        let mut draw = PlanarDraw {
+            patches: patches.len(),
+            waiting: plan.waiting,
+            spacing_m: plan.spacing_m,
+            ..Default::default()
+        };
+        for (i, (patch, outer)) in plan
+            .patches
+            .iter()
+            .zip(&plan.outer_sides)
+            .take(MAX_PATCHES)
+            .enumerate()
+        {
+            let (k, sides) = patch.tessellation();
+            draw.draws.push((self.mesh.range(k, sides), i as u32));
+            for side in SOUTH..=WEST {
+                if outer[side] {
+                    draw.draws
+                        .push((self.mesh.skirt(side, sides[side]), i as u32));
+                }
+            }
+        }
+        draw.triangles = draw.draws.iter().map(|(r, _)| (r.len() / 3) as u64).sum();
+        draw
+    }
+}
