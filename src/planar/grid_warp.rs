@@ -236,7 +236,10 @@ pub fn warp_with(
         "empty grid"
     );
     assert_eq!(map.values.len(), cols * rows, "one value per cell");
-    let k = settings.max_compression.max(1.0).min(MAX_COMPRESSION_LIMIT); // NaN → 1
+    let k = match settings.max_compression {
+        m if m >= 1.0 => m.min(MAX_COMPRESSION_LIMIT),
+        _ => 1.0, // also NaN
+    };
     let low = warp_low_res(&guarded(&map.values, k), cols, rows, k);
     let mut vertices = Vec::with_capacity((out_cols + 1) * (out_rows + 1));
     for b in 0..=out_rows {
@@ -453,7 +456,7 @@ pub fn quality(map: &ImportanceMap, grid: &WarpedGrid) -> WarpQuality {
         if !(s > 0.0 && s.is_finite()) {
             continue;
         }
-        while !(shares[lo] > 0.0) || shares[lo] < 0.5 * s * (1.0 - 1e-12) {
+        while shares[lo] < 0.5 * s * (1.0 - 1e-12) {
             lo += 1;
         }
         if hi + 1 - lo > best {
