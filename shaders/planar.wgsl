@@ -34,8 +34,10 @@ struct PatchGpu {
     sides: vec4<f32>,
 }
 
-@group(0) @binding(13) var<uniform> planar: PlanarUniforms;
-@group(0) @binding(14) var<storage, read> patches: array<PatchGpu>;
+@group(1) @binding(0) var<uniform> planar: PlanarUniforms;
+@group(1) @binding(1) var<storage, read> patches: array<PatchGpu>;
+// Geomipmapping's triangle lists, read by the wireframe draw (vs_geomip_wire).
+@group(1) @binding(2) var<storage, read> patch_indices: array<u32>;
 
 // Plane coordinates of view-space unit vector u (the inverse of the gnomonic map); far from
 // the anchor's hemisphere, a point no square contains.
@@ -80,12 +82,6 @@ fn planar_point(q: vec2<f32>) -> PlanarPoint {
     return out;
 }
 
-// Height of lattice point (x, y) of a patch (local lattice units).
-fn lattice_height(c: vec2<i32>, x: u32, y: u32) -> f32 {
-    let q = vec2<f32>(c + vec2<i32>(i32(x), i32(y))) * planar.spacing_m;
-    return planar_point(q).at.h;
-}
-
 // Lattice point t along border `side` of a patch of n cells (twin: planar::geomip).
 fn border_point(side: u32, t: u32, n: u32) -> vec2<u32> {
     switch side {
@@ -104,41 +100,57 @@ fn border_of(x: u32, y: u32, n: u32) -> u32 {
     return 4u;
 }
 
-// A border's vertex at t as drawn: morphed along the border by its tween factor.
-fn border_vertex(c: vec2<i32>, side: u32, t: u32, n: u32, s: u32, f: f32) -> f32 {
-    let p = border_point(side, t, n);
-    let here = lattice_height(c, p.x, p.y);
-    if ((t / s) & 1u) == 0u || f <= 0.0 || s >= n {
-        return here;
+// The height a vertex is drawn at is a linear combination of lattice heights (its own, its
+// morph target's neighbours, a coarser border's line): collected here as (x, y, weight) terms,
+// then sampled in one loop, so the shader holds one copy of the height lookup (a CPU
+// rasteriser compiles every inlined copy).
+struct Terms {
+    t: array<vec3<f32>, 16>,
+    n: u32,
+}
+
+fn add_term(terms: ptr<function, Terms>, p: vec2<u32>, w: f32) {
+    if w != 0.0 && (*terms).n < 16u {
+        (*terms).t[(*terms).n] = vec3<f32>(f32(p.x), f32(p.y), w);
+        (*terms).n += 1u;
     }
-    let a = border_point(side, t - s, n);
-    let b = border_point(side, t + s, n);
-    return mix(here, 0.5 * (lattice_height(c, a.x, a.y) + lattice_height(c, b.x, b.y)), f);
+}
+
+// A border's vertex at t as drawn: morphed along the border by its tween factor f.
+fn add_border_vertex(terms: ptr<function, Terms>, side: u32, t: u32, n: u32, s: u32, f: f32, w: f32) {
+    let p = border_point(side, t, n);
+    if ((t / s) & 1u) == 0u || f <= 0.0 || s >= n {
+        add_term(terms, p, w);
+        return;
+    }
+    add_term(terms, p, w * (1.0 - f));
+    add_term(terms, border_point(side, t - s, n), 0.5 * w * f);
+    add_term(terms, border_point(side, t + s, n), 0.5 * w * f);
 }
 
 // The border `side` as drawn at t (linear between its vertices): twin planar::geomip::border_height.
-fn border_height(c: vec2<i32>, pd: PatchGpu, side: u32, t: u32, n: u32) -> f32 {
+fn add_border(terms: ptr<function, Terms>, pd: PatchGpu, side: u32, t: u32, n: u32, w: f32) {
     let le = pd.sides[side];
-    let ke = u32(floor(le));
-    let s = 1u << ke;
+    let s = 1u << u32(floor(le));
     let f = le - floor(le);
     let t0 = t / s * s;
-    let h0 = border_vertex(c, side, t0, n, s, f);
     if t0 == t {
-        return h0;
+        add_border_vertex(terms, side, t0, n, s, f, w);
+        return;
     }
-    let h1 = border_vertex(c, side, t0 + s, n, s, f);
-    return mix(h0, h1, f32(t - t0) / f32(s));
+    let a = f32(t - t0) / f32(s);
+    add_border_vertex(terms, side, t0, n, s, f, w * (1.0 - a));
+    add_border_vertex(terms, side, t0 + s, n, s, f, w * a);
 }
 
 // A morph target's neighbour as drawn: on a border coarser than the interior, that border's line.
-fn drawn_neighbour(c: vec2<i32>, pd: PatchGpu, k: u32, x: u32, y: u32, n: u32) -> f32 {
+fn add_neighbour(terms: ptr<function, Terms>, pd: PatchGpu, k: u32, x: u32, y: u32, n: u32, w: f32) {
     let side = border_of(x, y, n);
     if side < 4u && u32(floor(pd.sides[side])) > k {
-        let t = select(y, x, side == 0u || side == 2u);
-        return border_height(c, pd, side, t, n);
+        add_border(terms, pd, side, select(y, x, side == 0u || side == 2u), n, w);
+        return;
     }
-    return lattice_height(c, x, y);
+    add_term(terms, vec2<u32>(x, y), w);
 }
 
 // Geomipmapping (twin: planar::geomip::morphed_height): vertex_index is the local lattice
@@ -146,6 +158,18 @@ fn drawn_neighbour(c: vec2<i32>, pd: PatchGpu, k: u32, x: u32, y: u32, n: u32) -
 // ((n + 1)² + s·(n + 1) + t); instance_index picks the patch.
 @vertex
 fn vs_geomip(@builtin(vertex_index) index: u32, @builtin(instance_index) instance: u32) -> VertexOut {
+    return geomip_vertex(index, instance);
+}
+
+// The wireframe overlay's draw (non-indexed: the index read here, the corner known).
+@vertex
+fn vs_geomip_wire(@builtin(vertex_index) i: u32, @builtin(instance_index) instance: u32) -> VertexOut {
+    var out = geomip_vertex(patch_indices[i], instance);
+    out.bary = corner_bary(i);
+    return out;
+}
+
+fn geomip_vertex(index: u32, instance: u32) -> VertexOut {
     let pd = patches[instance];
     let n = planar.patch_cells;
     let size = n + 1u;
@@ -164,9 +188,11 @@ fn vs_geomip(@builtin(vertex_index) index: u32, @builtin(instance_index) instanc
     let pt = planar_point(q);
     var h = pt.at.h;
     if GEOMORPH {
+        var terms: Terms;
+        terms.n = 0u;
         let side = border_of(x, y, n);
         if side < 4u {
-            h = border_height(c, pd, side, select(y, x, side == 0u || side == 2u), n);
+            add_border(&terms, pd, side, select(y, x, side == 0u || side == 2u), n, 1.0);
         } else {
             let k = u32(floor(pd.level));
             let s = 1u << k;
@@ -174,21 +200,28 @@ fn vs_geomip(@builtin(vertex_index) index: u32, @builtin(instance_index) instanc
             let odd_x = ((x / s) & 1u) == 1u;
             let odd_y = ((y / s) & 1u) == 1u;
             if f > 0.0 && s < n && (odd_x || odd_y) {
-                var sum_t: f32;
+                add_term(&terms, vec2<u32>(x, y), 1.0 - f);
+                var a = vec2<u32>(x, y - s);
+                var b = vec2<u32>(x, y + s);
                 if odd_x && odd_y {
                     // The coarser quad's diagonal (4-8 pattern: planar::geomip::main_diagonal).
                     let on_main = (((x - s) / (2u * s) + (y - s) / (2u * s)) & 1u) == 0u;
-                    if on_main {
-                        sum_t = drawn_neighbour(c, pd, k, x - s, y - s, n) + drawn_neighbour(c, pd, k, x + s, y + s, n);
-                    } else {
-                        sum_t = drawn_neighbour(c, pd, k, x - s, y + s, n) + drawn_neighbour(c, pd, k, x + s, y - s, n);
-                    }
+                    a = select(vec2<u32>(x - s, y + s), vec2<u32>(x - s, y - s), on_main);
+                    b = select(vec2<u32>(x + s, y - s), vec2<u32>(x + s, y + s), on_main);
                 } else if odd_x {
-                    sum_t = drawn_neighbour(c, pd, k, x - s, y, n) + drawn_neighbour(c, pd, k, x + s, y, n);
-                } else {
-                    sum_t = drawn_neighbour(c, pd, k, x, y - s, n) + drawn_neighbour(c, pd, k, x, y + s, n);
+                    a = vec2<u32>(x - s, y);
+                    b = vec2<u32>(x + s, y);
                 }
-                h = mix(h, 0.5 * sum_t, f);
+                add_neighbour(&terms, pd, k, a.x, a.y, n, 0.5 * f);
+                add_neighbour(&terms, pd, k, b.x, b.y, n, 0.5 * f);
+            }
+        }
+        // The vertex alone, unmorphed: its own height is already at hand.
+        if !(terms.n == 1u && all(terms.t[0].xy == vec2<f32>(f32(x), f32(y)))) && terms.n > 0u {
+            h = 0.0;
+            for (var i = 0u; i < terms.n; i++) {
+                let tq = (vec2<f32>(c) + terms.t[i].xy) * planar.spacing_m;
+                h += terms.t[i].z * planar_point(tq).at.h;
             }
         }
     }
@@ -216,6 +249,8 @@ fn vs_geomip(@builtin(vertex_index) index: u32, @builtin(instance_index) instanc
     out.level = pt.level;
     out.rel = rel;
     out.plane_xy = q;
+    out.bary = vec3<f32>(1.0);
+    out.tag = 64u + u32(floor(pd.level));
     out.inscatter = vec3<f32>(0.0);
     out.view_t = vec3<f32>(1.0);
     out.sun_t = vec3<f32>(1.0);

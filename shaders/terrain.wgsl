@@ -114,6 +114,12 @@ struct VertexOut {
     // Plane coordinates of a planar LOD method's frame (planar.wgsl): where the clipmap
     // leaves the ground to it.
     @location(8) plane_xy: vec2<f32>,
+    // Wireframe overlay: the triangle's barycentric coordinates (1 at one corner each), from
+    // the draws that pull their indices themselves (vs_main_wire, vs_geomip_wire), so the
+    // edges need no adapter feature. (1, 1, 1) elsewhere: no edge.
+    @location(9) bary: vec3<f32>,
+    // Level overlay: the clipmap level, or 64 + a geomipmapping patch's tessellation level.
+    @location(10) @interpolate(flat) tag: u32,
 }
 
 // Pipeline constants (render::terrain): the morph's code only in the pipeline that draws
@@ -151,6 +157,8 @@ override GEOMORPH: bool = true;
 // rg: wave slopes (look::proto::wave_texture).
 @group(0) @binding(11) var waves: texture_2d<f32>;
 @group(0) @binding(12) var look_sampler: sampler;
+// The ring mesh's triangle list, read by the wireframe draws (vs_main_wire).
+@group(0) @binding(15) var<storage, read> ring_indices: array<u32>;
 
 fn wrap_texel(i: i32) -> i32 {
     let s = i32(frame.texture_size);
@@ -274,6 +282,34 @@ fn mesh_index(level: u32, j: u32, t: u32) -> u32 {
 
 @vertex
 fn vs_main(v: RingVertex, @builtin(vertex_index) index: u32) -> VertexOut {
+    return ring_vertex(v, index);
+}
+
+// Barycentric corner of the i-th vertex of a triangle list.
+fn corner_bary(i: u32) -> vec3<f32> {
+    let c = i % 3u;
+    return vec3<f32>(f32(c == 0u), f32(c == 1u), f32(c == 2u));
+}
+
+// The wireframe overlay's draw: non-indexed, the index read here, so each triangle's three
+// vertices know which corner they are.
+@vertex
+fn vs_main_wire(@builtin(vertex_index) i: u32) -> VertexOut {
+    let index = ring_indices[i];
+    let m = mesh[index];
+    var v: RingVertex;
+    v.p_tilde = m.p_tilde;
+    v.one_minus_cos = m.one_minus_cos;
+    v.theta_tilde_rad = m.theta_tilde_rad;
+    v.ring_t = m.ring_t;
+    v.level = m.level;
+    v.seam_side = m.seam_side;
+    var out = ring_vertex(v, index);
+    out.bary = corner_bary(i);
+    return out;
+}
+
+fn ring_vertex(v: RingVertex, index: u32) -> VertexOut {
     var at = place(v.p_tilde, v.seam_side, v.level, v.ring_t, v.theta_tilde_rad);
     var p = v.p_tilde;
     var one_minus_cos = v.one_minus_cos;
@@ -351,6 +387,8 @@ fn vs_main(v: RingVertex, @builtin(vertex_index) index: u32) -> VertexOut {
     out.coarse_blend = at.blend;
     out.level = v.level;
     out.rel = rel;
+    out.bary = vec3<f32>(1.0);
+    out.tag = v.level;
     out.plane_xy = vec2<f32>(3.0e38);
     if CUT {
         out.plane_xy = plane_coords(p);
@@ -552,6 +590,8 @@ fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
     if CUT && in_planar_cut(in.plane_xy) {
         discard;
     }
+    // Distance to the nearest edge in pixels (derivatives first: uniform control flow).
+    let bary_px = in.bary / max(fwidth(in.bary), vec3<f32>(1e-6));
     // World-stable texture coordinates and their screen derivatives, first (derivatives
     // need uniform control flow). Eye-relative: small and precise near the viewer.
     let wrel = look_world(in.rel);
@@ -675,7 +715,17 @@ fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
         colour = tone_map(colour * in.view_t + in.inscatter);
     }
     if (frame.overlay & OVERLAY_LEVELS) != 0u {
-        colour = mix(colour, level_colour(level) * (0.35 + 0.65 * lambert), 0.6);
+        var tint = level_colour(in.tag);
+        if in.tag >= 64u {
+            // Geomipmapping patches by tessellation level: finest white, then yellow to red.
+            let k = f32(in.tag - 64u);
+            tint = mix(vec3<f32>(1.0, 1.0, 1.0), vec3<f32>(0.9, 0.1, 0.05), clamp(k / 4.0, 0.0, 1.0)) * vec3<f32>(1.0, 1.0 - 0.12 * k, 0.6);
+        }
+        colour = mix(colour, tint * (0.35 + 0.65 * lambert), 0.6);
+    }
+    if (frame.overlay & OVERLAY_WIREFRAME) != 0u {
+        let edge = 1.0 - smoothstep(0.5, 1.5, min(bary_px.x, min(bary_px.y, bary_px.z)));
+        colour = mix(colour, vec3<f32>(0.02, 0.02, 0.03), edge);
     }
     return vec4<f32>(colour, 1.0);
 }

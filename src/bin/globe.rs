@@ -88,8 +88,11 @@ struct ReportArgs {
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 enum Overlay {
-    /// Each clipmap level in its own colour.
+    /// Each clipmap level in its own colour; geomipmapping patches by tessellation level
+    /// (white finest, toward red coarsest).
     Levels,
+    /// Every triangle's edges (barycentric, so on every adapter), for every LOD method.
+    Wireframe,
     /// The per-pixel screen-space error ρ as a heat map (blue 0 px, yellow 1 px, red ≥ 4 px),
     /// computed on the CPU against the terrain function (`globe render` only).
     Error,
@@ -573,6 +576,7 @@ fn render(args: &RenderArgs) -> anyhow::Result<ExitCode> {
     let mut renderer =
         TerrainRenderer::with_streaming(&ctx.device, settings, terrain, COLOR_FORMAT, stream)?;
     renderer.overlays.levels = args.overlay == Some(Overlay::Levels);
+    renderer.set_wireframe(&ctx.device, args.overlay == Some(Overlay::Wireframe));
     renderer.set_look(&ctx.device, args.look.settings());
     renderer.set_lod(&ctx.device, args.lod.settings()?);
     let camera = view.camera(|lat, lon| renderer.terrain_height_m(lat, lon));
@@ -665,6 +669,7 @@ fn viewer(args: &ViewerArgs) -> anyhow::Result<ExitCode> {
         start,
         settings: args.mesh.settings()?,
         overlay_levels: args.overlay == Some(Overlay::Levels),
+        overlay_wireframe: args.overlay == Some(Overlay::Wireframe),
         terrain: args.dem.open()?,
         look: args.look.settings(),
         lod: args.lod.settings()?,

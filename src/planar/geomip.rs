@@ -51,7 +51,7 @@ impl Default for GeomipSettings {
 /// A bad geomipmapping setting, naming its flag.
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum GeomipError {
-    #[error("--patch-size {0}: a patch has 2^n + 1 vertices per side (5, 9, 17, 33 or 65)")]
+    #[error("--patch-size {0}: a patch has 2^n + 1 vertices per side: 5, 9, 17 or 33")]
     PatchSize(u32),
     #[error(
         "--patches {0}: the patches per side of the square around the viewer must be even, 2 to 64"
@@ -64,7 +64,7 @@ pub enum GeomipError {
 impl GeomipSettings {
     pub fn validate(&self) -> Result<(), GeomipError> {
         let cells = self.patch_size.wrapping_sub(1);
-        if !(4..=64).contains(&cells) || !cells.is_power_of_two() {
+        if !(4..=32).contains(&cells) || !cells.is_power_of_two() {
             return Err(GeomipError::PatchSize(self.patch_size));
         }
         if !(2..=64).contains(&self.patches) || !self.patches.is_multiple_of(2) {
@@ -726,7 +726,7 @@ mod tests {
         let ok = GeomipSettings::default();
         assert_eq!(ok.validate(), Ok(()));
         assert_eq!(ok.max_level(), 4);
-        for size in [0, 1, 2, 3, 16, 18, 129] {
+        for size in [0, 1, 2, 3, 16, 18, 65, 129] {
             let e = GeomipSettings {
                 patch_size: size,
                 ..ok

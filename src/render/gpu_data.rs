@@ -671,8 +671,24 @@ pub fn pass_contracts() -> Vec<PassContract> {
             ],
             buffers: vec![
                 buffer(0, FrameUniforms::wgsl_type()),
-                buffer(13, PlanarUniforms::wgsl_type()),
-                buffer(14, "array<PatchGpu>".to_string()),
+                // The ring mesh's triangle list again, read by the wireframe draw.
+                buffer(15, "array<u32>".to_string()),
+                // The planar methods' group (render::planar).
+                BufferBinding {
+                    group: 1,
+                    binding: 0,
+                    wgsl_type: PlanarUniforms::wgsl_type(),
+                },
+                BufferBinding {
+                    group: 1,
+                    binding: 1,
+                    wgsl_type: "array<PatchGpu>".to_string(),
+                },
+                BufferBinding {
+                    group: 1,
+                    binding: 2,
+                    wgsl_type: "array<u32>".to_string(),
+                },
                 buffer(1, <[LevelUniforms; MAX_LEVELS as usize]>::wgsl_type()),
                 buffer(4, BumpUniforms::wgsl_type()),
                 buffer(5, "array<f32>".to_string()),
@@ -736,18 +752,17 @@ pub fn pass_contracts() -> Vec<PassContract> {
 /// Debug overlays drawn by the terrain pass.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Overlays {
-    /// Each level in its own colour (`--overlay levels`).
+    /// Each level in its own colour (`--overlay levels`); geomipmapping patches by level.
     pub levels: bool,
+    /// Every triangle's edges (`--overlay wireframe`), for every LOD method.
+    pub wireframe: bool,
 }
 
 impl Overlays {
     /// The `overlay` bit field of [`FrameUniforms`] (bits are generated WGSL constants).
     pub fn bits(self) -> u32 {
-        if self.levels {
-            shader::OVERLAY_LEVELS
-        } else {
-            0
-        }
+        let bit = |on: bool, b: u32| if on { b } else { 0 };
+        bit(self.levels, shader::OVERLAY_LEVELS) | bit(self.wireframe, shader::OVERLAY_WIREFRAME)
     }
 }
 

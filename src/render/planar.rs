@@ -29,11 +29,15 @@ pub struct PlanarDraw {
     pub spacing_m: f64,
 }
 
+/// The planar methods' buffers and their bind group (group 1 of every terrain pipeline: the
+/// clipmap reads the uniforms to cut the planar square out).
 pub struct PlanarResources {
     pub uniforms: wgpu::Buffer,
     pub patches: wgpu::Buffer,
     mesh: PatchMesh,
     index_buffer: wgpu::Buffer,
+    layout: wgpu::BindGroupLayout,
+    bind_group: wgpu::BindGroup,
 }
 
 impl PlanarResources {
@@ -50,12 +54,69 @@ impl PlanarResources {
             mapped_at_creation: false,
         });
         let (mesh, index_buffer) = Self::mesh(device, patch_size);
+        let entry = |binding, ty| wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
+            ty: wgpu::BindingType::Buffer {
+                ty,
+                has_dynamic_offset: false,
+                min_binding_size: None,
+            },
+            count: None,
+        };
+        let storage = wgpu::BufferBindingType::Storage { read_only: true };
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("planar layout"),
+            entries: &[
+                entry(0, wgpu::BufferBindingType::Uniform),
+                entry(1, storage),
+                entry(2, storage),
+            ],
+        });
+        let bind_group = Self::bind(device, &layout, &uniforms, &patches, &index_buffer);
         Self {
             uniforms,
             patches,
             mesh,
             index_buffer,
+            layout,
+            bind_group,
         }
+    }
+
+    fn bind(
+        device: &wgpu::Device,
+        layout: &wgpu::BindGroupLayout,
+        uniforms: &wgpu::Buffer,
+        patches: &wgpu::Buffer,
+        indices: &wgpu::Buffer,
+    ) -> wgpu::BindGroup {
+        device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("planar bind group"),
+            layout,
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: uniforms.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: patches.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 2,
+                    resource: indices.as_entire_binding(),
+                },
+            ],
+        })
+    }
+
+    pub fn layout(&self) -> &wgpu::BindGroupLayout {
+        &self.layout
+    }
+
+    pub fn bind_group(&self) -> &wgpu::BindGroup {
+        &self.bind_group
     }
 
     fn mesh(device: &wgpu::Device, patch_size: u32) -> (PatchMesh, wgpu::Buffer) {
@@ -63,7 +124,8 @@ impl PlanarResources {
         let buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("geomipmapping indices"),
             contents: bytemuck::cast_slice(&mesh.indices),
-            usage: wgpu::BufferUsages::INDEX,
+            // Also read by the wireframe draw.
+            usage: wgpu::BufferUsages::INDEX | wgpu::BufferUsages::STORAGE,
         });
         (mesh, buffer)
     }
@@ -72,6 +134,13 @@ impl PlanarResources {
     pub fn set_patch_size(&mut self, device: &wgpu::Device, patch_size: u32) {
         if self.mesh.size != patch_size {
             (self.mesh, self.index_buffer) = Self::mesh(device, patch_size);
+            self.bind_group = Self::bind(
+                device,
+                &self.layout,
+                &self.uniforms,
+                &self.patches,
+                &self.index_buffer,
+            );
         }
     }
 

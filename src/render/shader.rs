@@ -17,6 +17,8 @@ pub const WORKGROUP_SIZE: u32 = 8;
 pub const NO_SLOT: u32 = u32::MAX;
 /// Bit of `FrameUniforms::overlay`: tint each level in its own colour.
 pub const OVERLAY_LEVELS: u32 = 1;
+/// Bit of the wireframe overlay (barycentric edges).
+pub const OVERLAY_WIREFRAME: u32 = 2;
 
 const TRIG: &str = include_str!("../../shaders/common/trig.wgsl");
 const MAP_TRANSFORM: &str = include_str!("../../shaders/common/map_transform.wgsl");
@@ -48,6 +50,7 @@ pub fn shared_constants() -> Vec<SharedConstant> {
         c("WORKGROUP_SIZE", WORKGROUP_SIZE),
         c("NO_SLOT", NO_SLOT),
         c("OVERLAY_LEVELS", OVERLAY_LEVELS),
+        c("OVERLAY_WIREFRAME", OVERLAY_WIREFRAME),
         c("MAX_OCTAVES", MAX_OCTAVES as u32),
         c("PROTO_TEXTURE_SIZE", crate::look::proto::TEXTURE_SIZE),
         c("DETAIL_AMPLITUDE_VECS", (MAX_OCTAVES / 4) as u32),

@@ -131,10 +131,20 @@ pub struct TerrainRenderer {
     /// The clipmap variants that cut out the planar square, and the geomipmapping pipeline
     /// (built on first use).
     planar_pipelines: Option<PlanarPipelines>,
+    /// The wireframe overlay's (built when it is first switched on).
+    wire_pipelines: Option<WirePipelines>,
 }
 
 /// Pipelines of a frame with a planar method.
 struct PlanarPipelines {
+    clipmap_cut: [wgpu::RenderPipeline; 3],
+    geomip: wgpu::RenderPipeline,
+}
+
+/// The wireframe overlay's pipelines: the same shading, drawn without an index buffer (the
+/// vertex stages read the indices and give each corner its barycentric coordinate).
+struct WirePipelines {
+    clipmap: [wgpu::RenderPipeline; 3],
     clipmap_cut: [wgpu::RenderPipeline; 3],
     geomip: wgpu::RenderPipeline,
 }
@@ -186,7 +196,8 @@ impl TerrainRenderer {
         let index_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("ring indices"),
             contents: bytemuck::cast_slice(&mesh.indices),
-            usage: wgpu::BufferUsages::INDEX,
+            // Also read by the wireframe draw.
+            usage: wgpu::BufferUsages::INDEX | wgpu::BufferUsages::STORAGE,
         });
         let frame_buffer = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("frame uniforms"),
@@ -347,8 +358,7 @@ impl TerrainRenderer {
                     ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
                     count: None,
                 },
-                uniform_entry(13),
-                storage_entry(14, wgpu::ShaderStages::VERTEX),
+                storage_entry(15, wgpu::ShaderStages::VERTEX),
             ],
         });
         let lod = LodSettings::default();
@@ -410,12 +420,8 @@ impl TerrainRenderer {
                     resource: wgpu::BindingResource::Sampler(&look_resources.sampler),
                 },
                 wgpu::BindGroupEntry {
-                    binding: 13,
-                    resource: planar.uniforms.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 14,
-                    resource: planar.patches.as_entire_binding(),
+                    binding: 15,
+                    resource: index_buffer.as_entire_binding(),
                 },
             ],
         });
@@ -425,7 +431,7 @@ impl TerrainRenderer {
         });
         let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("terrain pipeline layout"),
-            bind_group_layouts: &[Some(&layout)],
+            bind_group_layouts: &[Some(&layout), Some(planar.layout())],
             immediate_size: 0,
         });
         let pipeline_parts = PipelineParts {
@@ -494,7 +500,20 @@ impl TerrainRenderer {
             geomip_state: GeomipState::default(),
             planar,
             planar_pipelines: None,
+            wire_pipelines: None,
         })
+    }
+
+    /// The wireframe overlay on or off (builds its pipelines the first time).
+    pub fn set_wireframe(&mut self, device: &wgpu::Device, on: bool) {
+        self.overlays.wireframe = on;
+        if on && self.wire_pipelines.is_none() {
+            self.wire_pipelines = Some(self.pipeline_parts.build_wire(
+                device,
+                self.look,
+                self.lod.geomip.geomorph,
+            ));
+        }
     }
 
     /// Which LOD method draws near the ground from the next frame on.
@@ -505,6 +524,13 @@ impl TerrainRenderer {
         }
         if lod.geomip.geomorph != self.lod.geomip.geomorph {
             self.planar_pipelines = None;
+            if self.wire_pipelines.is_some() {
+                self.wire_pipelines = Some(self.pipeline_parts.build_wire(
+                    device,
+                    self.look,
+                    lod.geomip.geomorph,
+                ));
+            }
         }
         if lod.mode != LodMode::Clipmap && self.planar_pipelines.is_none() {
             self.planar_pipelines = Some(self.pipeline_parts.build_planar(
@@ -909,6 +935,13 @@ impl TerrainRenderer {
                     self.lod.geomip.geomorph,
                 ));
             }
+            if self.wire_pipelines.is_some() {
+                self.wire_pipelines = Some(self.pipeline_parts.build_wire(
+                    device,
+                    look,
+                    self.lod.geomip.geomorph,
+                ));
+            }
         }
         self.look = look;
     }
@@ -964,6 +997,7 @@ impl TerrainRenderer {
     /// Records the terrain draw calls of `info` into `pass`.
     pub fn draw(&self, pass: &mut wgpu::RenderPass<'_>, info: &FrameInfo) {
         pass.set_bind_group(0, &self.bind_group, &[]);
+        pass.set_bind_group(1, self.planar.bind_group(), &[]);
         pass.set_vertex_buffer(0, self.vertex_buffer.slice(..));
         pass.set_index_buffer(self.index_buffer.slice(..), wgpu::IndexFormat::Uint32);
         let mut current = None;
@@ -972,7 +1006,16 @@ impl TerrainRenderer {
             (Some(draw), Some(pipelines)) if !self.use_passthrough => Some((draw, pipelines)),
             _ => None,
         };
-        let clipmap = planar.map_or(&self.pipelines, |(_, p)| &p.clipmap_cut);
+        let wire = self
+            .wire_pipelines
+            .as_ref()
+            .filter(|_| self.overlays.wireframe && !self.use_passthrough);
+        let clipmap = match (wire, planar) {
+            (Some(w), Some(_)) => &w.clipmap_cut,
+            (Some(w), None) => &w.clipmap,
+            (None, Some((_, p))) => &p.clipmap_cut,
+            (None, None) => &self.pipelines,
+        };
         for (range, &variant) in info.draw.ranges.iter().zip(&info.draw.variants) {
             if current != Some(variant) {
                 pass.set_pipeline(if self.use_passthrough {
@@ -986,16 +1029,27 @@ impl TerrainRenderer {
                 });
                 current = Some(variant);
             }
-            pass.draw_indexed(range.clone(), 0, 0..1);
+            if wire.is_some() {
+                pass.draw(range.clone(), 0..1);
+            } else {
+                pass.draw_indexed(range.clone(), 0, 0..1);
+            }
         }
         if let Some((draw, pipelines)) = planar {
-            pass.set_pipeline(&pipelines.geomip);
+            match wire {
+                Some(w) => pass.set_pipeline(&w.geomip),
+                None => pass.set_pipeline(&pipelines.geomip),
+            }
             pass.set_index_buffer(
                 self.planar.index_buffer().slice(..),
                 wgpu::IndexFormat::Uint32,
             );
             for (range, patch) in &draw.draws {
-                pass.draw_indexed(range.clone(), 0, *patch..*patch + 1);
+                if wire.is_some() {
+                    pass.draw(range.clone(), *patch..*patch + 1);
+                } else {
+                    pass.draw_indexed(range.clone(), 0, *patch..*patch + 1);
+                }
             }
         }
         if self.look.sky && !self.use_passthrough {
@@ -1133,6 +1187,51 @@ impl PipelineParts {
                 device,
                 "geomipmapping pipeline",
                 "vs_geomip",
+                "fs_main",
+                &c,
+                false,
+                Some(wgpu::Face::Back),
+            ),
+        }
+    }
+
+    /// The wireframe overlay's pipelines (no vertex buffers, culling off: the overlay shows
+    /// every triangle the method draws, skirts included).
+    fn build_wire(
+        &self,
+        device: &wgpu::Device,
+        look: LookSettings,
+        geomorph: bool,
+    ) -> WirePipelines {
+        let variant = |label, morph, blend, cut| {
+            let c = self.constants(look, morph, blend, cut);
+            self.pipeline(
+                device,
+                label,
+                "vs_main_wire",
+                "fs_main",
+                &c,
+                false,
+                Some(wgpu::Face::Back),
+            )
+        };
+        let mut c = self.constants(look, false, true, false);
+        c.push(("GEOMORPH", if geomorph { 1.0 } else { 0.0 }));
+        WirePipelines {
+            clipmap: [
+                variant("wireframe", false, false, false),
+                variant("wireframe (blend band)", false, true, false),
+                variant("wireframe (morphing levels)", true, true, false),
+            ],
+            clipmap_cut: [
+                variant("wireframe, cut", false, false, true),
+                variant("wireframe (blend band), cut", false, true, true),
+                variant("wireframe (morphing levels), cut", true, true, true),
+            ],
+            geomip: self.pipeline(
+                device,
+                "geomipmapping wireframe",
+                "vs_geomip_wire",
                 "fs_main",
                 &c,
                 false,

@@ -273,6 +273,8 @@ impl App {
             transform: gpu.terrain.settings.transform,
             approx_start_level: gpu.terrain.settings.approx_start_level,
             overlay_levels: gpu.terrain.overlays.levels,
+            overlay_wireframe: gpu.terrain.overlays.wireframe,
+            mode: gpu.terrain.lod().mode,
             detail_editor: self.editor.open,
             textures: gpu.terrain.look().textures,
             sky: gpu.terrain.look().sky,
@@ -325,6 +327,17 @@ impl App {
         gpu.terrain.settings.transform = live.transform;
         gpu.terrain.settings.approx_start_level = live.approx_start_level;
         gpu.terrain.overlays.levels = live.overlay_levels;
+        if live.overlay_wireframe != gpu.terrain.overlays.wireframe {
+            gpu.terrain
+                .set_wireframe(&gpu.ctx.device, live.overlay_wireframe);
+        }
+        if live.mode != gpu.terrain.lod().mode {
+            let lod = crate::plan::LodSettings {
+                mode: live.mode,
+                ..gpu.terrain.lod()
+            };
+            gpu.terrain.set_lod(&gpu.ctx.device, lod);
+        }
         let look = crate::look::LookSettings {
             textures: live.textures,
             sky: live.sky,
@@ -648,6 +661,8 @@ impl ApplicationHandler for App {
             Ok(mut gpu) => {
                 gpu.terrain.set_look(&gpu.ctx.device, self.options.look);
                 gpu.terrain.set_lod(&gpu.ctx.device, self.options.lod);
+                gpu.terrain
+                    .set_wireframe(&gpu.ctx.device, self.options.overlay_wireframe);
                 gpu.window.request_redraw();
                 self.gpu = Some(gpu);
             }

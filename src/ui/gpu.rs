@@ -148,6 +148,7 @@ impl Gpu {
         renderer.overlays = self.terrain.overlays;
         renderer.set_look(device, self.terrain.look());
         renderer.set_lod(device, self.terrain.lod());
+        renderer.set_wireframe(device, self.terrain.overlays.wireframe);
         Ok(renderer)
     }
 

@@ -46,6 +46,8 @@ pub struct ViewerOptions {
     pub settings: ClipmapSettings,
     /// Start with the per-level colour overlay on.
     pub overlay_levels: bool,
+    /// Start with the wireframe overlay on.
+    pub overlay_wireframe: bool,
     /// The terrain to show (the embedded Earth, a DEM pyramid, or the analytic test planet).
     pub terrain: crate::terrain::Terrain,
     /// How DEM tiles stream (cache sizes, upload budget, injected faults).
@@ -62,6 +64,7 @@ impl Default for ViewerOptions {
             start: crate::scenes::SCENES[1].view(),
             settings: ClipmapSettings::default(),
             overlay_levels: false,
+            overlay_wireframe: false,
             terrain: crate::terrain::Terrain::analytic_earth(),
             stream: crate::stream::StreamSettings::default(),
             look: crate::look::LookSettings::default(),

@@ -124,6 +124,10 @@ pub struct LiveSettings {
     pub transform: TransformForm,
     pub approx_start_level: u32,
     pub overlay_levels: bool,
+    /// Every triangle's edges (`--overlay wireframe`).
+    pub overlay_wireframe: bool,
+    /// The LOD method near the ground (`--mode`).
+    pub mode: crate::plan::LodMode,
     /// The detail editor's window is open (`ui::editor`).
     pub detail_editor: bool,
     /// The look's proto-textured surface types and its atmosphere (`look::LookSettings`).
@@ -292,8 +296,32 @@ impl Panel {
             );
             ui.label("approximation from level");
         });
-        ui.checkbox(&mut live.overlay_levels, "levels")
-            .on_hover_text("colour each clipmap level");
+        ui.horizontal(|ui| {
+            ui.checkbox(&mut live.overlay_levels, "levels")
+                .on_hover_text("colour each clipmap level (geomipmapping patches by level)");
+            ui.checkbox(&mut live.overlay_wireframe, "wireframe")
+                .on_hover_text("every triangle's edges, for every LOD method");
+        });
+        ui.horizontal(|ui| {
+            use crate::plan::LodMode;
+            ui.label("near the ground");
+            for (mode, name, tip) in [
+                (LodMode::Clipmap, "clipmap", "the spherical clipmap alone"),
+                (
+                    LodMode::Geomip,
+                    "geomip",
+                    "geomipmapping with geomorphing around the viewer",
+                ),
+                (
+                    LodMode::Auto,
+                    "auto",
+                    "geomipmapping below 1 000 m above the terrain",
+                ),
+            ] {
+                ui.radio_value(&mut live.mode, mode, name)
+                    .on_hover_text(tip);
+            }
+        });
         ui.horizontal(|ui| {
             ui.checkbox(&mut live.textures, "surface types")
                 .on_hover_text("proto-textured sand, grass, forest, rock, snow (off: the tint)");
@@ -767,6 +795,8 @@ mod tests {
             transform: settings.transform,
             approx_start_level: settings.approx_start_level,
             overlay_levels: false,
+            overlay_wireframe: false,
+            mode: crate::plan::LodMode::Clipmap,
             detail_editor: true,
             textures: true,
             sky: true,
