@@ -69,3 +69,38 @@ fn a_bad_detail_file_is_refused_with_the_field_and_range() {
     let help = String::from_utf8_lossy(&help.stdout);
     assert!(help.contains("--detail <off|default|FILE>"), "{help}");
 }
+
+/// Bad close-up settings stop before any rendering, naming the flag and what it must be.
+#[test]
+fn bad_close_up_settings_name_their_flag() {
+    let out = tempfile::tempdir().expect("temp dir");
+    for (flag, value, says) in [
+        ("--tau", "0", "must be > 0"),
+        ("--tau", "-1", "must be > 0"),
+        ("--patch-size", "16", "2^n + 1"),
+        ("--patch-size", "65", "2^n + 1"),
+        ("--patches", "0", "even"),
+        ("--patches", "7", "even"),
+    ] {
+        let run = Command::new(env!("CARGO_BIN_EXE_globe"))
+            .args([
+                "render", "--scene", "ground", "--mode", "geomip", "--width", "8", "--height", "8",
+            ])
+            .arg(format!("{flag}={value}"))
+            .arg("--out")
+            .arg(out.path().join("x.png"))
+            .output()
+            .expect("globe runs");
+        let stderr = String::from_utf8_lossy(&run.stderr);
+        assert!(!run.status.success(), "{flag} {value} accepted");
+        assert!(
+            stderr.contains(flag) && stderr.contains(says),
+            "{flag} {value}: {stderr}"
+        );
+        assert!(
+            !stderr.contains("adapter:"),
+            "{flag} {value}: checked only after starting: {stderr}"
+        );
+        assert!(!out.path().join("x.png").exists());
+    }
+}

@@ -567,6 +567,7 @@ fn render(args: &RenderArgs) -> anyhow::Result<ExitCode> {
         );
     }
     let settings = args.mesh.settings()?;
+    let lod = args.lod.settings()?;
     let started = Instant::now();
     let ctx = GpuContext::headless().context("cannot render without a graphics adapter")?;
     eprintln!("adapter: {}", ctx.adapter_description());
@@ -578,7 +579,7 @@ fn render(args: &RenderArgs) -> anyhow::Result<ExitCode> {
     renderer.overlays.levels = args.overlay == Some(Overlay::Levels);
     renderer.set_wireframe(&ctx.device, args.overlay == Some(Overlay::Wireframe));
     renderer.set_look(&ctx.device, args.look.settings());
-    renderer.set_lod(&ctx.device, args.lod.settings()?);
+    renderer.set_lod(&ctx.device, lod);
     let camera = view.camera(|lat, lon| renderer.terrain_height_m(lat, lon));
     let target = OffscreenFrame::new(&ctx.device, args.width, args.height);
     let mut frame = if args.no_wait {
