@@ -15,6 +15,7 @@ use crate::clipmap::{ClipmapSettings, TransformForm};
 use crate::look::LookSettings;
 use crate::measure::plot::{self, Panel, PlotSpec, Point, pareto_front};
 use crate::measure::{self, ErrorStats, PixelSet, RayCaster, ReferenceImage};
+use crate::plan::{LodMode, LodSettings};
 use crate::render::offscreen::{COLOR_FORMAT, OffscreenFrame, SETTLE_TIMEOUT};
 use crate::render::timing::GpuTimer;
 use crate::render::{GpuContext, RenderError, TerrainRenderer};
@@ -41,6 +42,8 @@ pub enum Change {
     /// The one error knob at this many hundredths of a pixel (`--error-budget`: vertex
     /// spacing, texture size and mesh resolution together).
     ErrorBudget(u32),
+    /// Another LOD method near the ground (`--mode`).
+    Lod(LodMode),
 }
 
 impl Change {
@@ -48,7 +51,7 @@ impl Change {
     pub fn apply(self, base: &ClipmapSettings) -> ClipmapSettings {
         let mut s = base.clone();
         match self {
-            Change::Default | Change::OverlayLevels => {}
+            Change::Default | Change::OverlayLevels | Change::Lod(_) => {}
             Change::PhiSteps(n) => s.phi_steps = n,
             Change::RingsPerLevel(m) => s.rings_per_level = m,
             Change::TextureSize(t) => s.texture_size = t,
@@ -79,6 +82,15 @@ impl Change {
             Change::Transform(_) => "map transform",
             Change::OverlayLevels => "overlay on",
             Change::ErrorBudget(_) => "error budget",
+            Change::Lod(_) => "LOD method",
+        }
+    }
+
+    /// The LOD methods this change draws with, from the run's.
+    pub fn lod(self, base: LodSettings) -> LodSettings {
+        match self {
+            Change::Lod(mode) => LodSettings { mode, ..base },
+            _ => base,
         }
     }
 }
@@ -94,6 +106,7 @@ impl std::fmt::Display for Change {
             Change::Transform(form) => write!(f, "transform={}", form.name()),
             Change::OverlayLevels => write!(f, "overlay=levels"),
             Change::ErrorBudget(centi) => write!(f, "budget={}", *centi as f32 / 100.0),
+            Change::Lod(mode) => write!(f, "mode={}", mode.name()),
         }
     }
 }
@@ -108,7 +121,8 @@ pub struct Setting {
 /// The settings the report runs: the defaults, then one parameter changed at a time (mesh
 /// resolution n and m, texture size, each map-transform form), the level overlay on (to
 /// show what an overlay costs; every other row has overlays off), and the error budget swept
-/// over 0.5–8 px. Changes that make invalid settings are left out.
+/// over 0.5–8 px, and geomipmapping near the viewer. Changes that make invalid settings are
+/// left out.
 pub fn settings_grid(base: &ClipmapSettings) -> Vec<Setting> {
     let mut changes = vec![Change::Default];
     changes.extend([256, 1024].map(Change::PhiSteps));
@@ -122,6 +136,8 @@ pub fn settings_grid(base: &ClipmapSettings) -> Vec<Setting> {
     changes.push(Change::OverlayLevels);
     // The knob's sweep: error against time as a curve (the default budget is the base row).
     changes.extend([50, 100, 400, 800].map(Change::ErrorBudget));
+    // The close-up method against the clipmap alone (README "Close-up modes").
+    changes.push(Change::Lod(LodMode::Geomip));
     (changes.into_iter())
         .map(|change| Setting {
             change,
@@ -249,7 +265,7 @@ pub fn run(
             )?;
             r.overlays.levels = setting.change.overlay_levels();
             r.set_look(&ctx.device, options.look);
-            r.set_lod(&ctx.device, options.lod);
+            r.set_lod(&ctx.device, setting.change.lod(options.lod));
             r.settle(ctx, &camera, options.width, options.height, SETTLE_TIMEOUT);
             let mut timed = Vec::new();
             for i in 0..options.frames + 2 {

@@ -49,6 +49,15 @@ pub const AUTO_ON_BELOW_M: f64 = 1000.0;
 pub const AUTO_OFF_ABOVE_M: f64 = 1500.0;
 
 impl LodMode {
+    /// The name `--mode` takes.
+    pub fn name(self) -> &'static str {
+        match self {
+            LodMode::Clipmap => "clipmap",
+            LodMode::Geomip => "geomip",
+            LodMode::Auto => "auto",
+        }
+    }
+
     /// Whether a planar method draws this frame, given the height above the terrain and
     /// whether one drew the frame before (`auto`'s hysteresis).
     pub fn planar(self, height_above_terrain_m: f64, was_planar: bool) -> bool {
