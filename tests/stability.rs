@@ -466,12 +466,20 @@ fn every_camera_gives_finite_frames_transforms_bounds_and_selection() {
                     })
                     .collect();
                 densities.set_drawn(&sel, &body);
-                let list = DrawList::build(mesh, bounds, &sel, &densities, Some(&frustum), |_| {
-                    (
-                        EARTH_RADIUS_M + EARTH_TERRAIN_MIN_M,
-                        EARTH_RADIUS_M + EARTH_TERRAIN_MAX_M,
-                    )
-                });
+                let list = DrawList::build(
+                    mesh,
+                    bounds,
+                    &sel,
+                    &densities,
+                    Some(&frustum),
+                    |_| {
+                        (
+                            EARTH_RADIUS_M + EARTH_TERRAIN_MIN_M,
+                            EARTH_RADIUS_M + EARTH_TERRAIN_MAX_M,
+                        )
+                    },
+                    u32::MAX,
+                );
                 let sectors = (sel.drawn_levels().len() as u32 + 1) * settings.sectors;
                 prop_assert_eq!(list.sectors_drawn + list.sectors_culled, sectors);
                 let most = sel.drawn_levels().len() as u64 * settings.triangles_per_level()

@@ -294,10 +294,11 @@ pub struct DrawList {
 }
 
 impl DrawList {
-    /// Visible sectors of the drawn levels plus the cap of the finest one; adjacent index
-    /// ranges are merged into one draw call (no frustum: nothing culled, for tests).
-    /// `radius_range_m(level)` bounds the distance from
-    /// the planet's centre of the terrain within that level's outer ring.
+    /// Visible sectors of the drawn levels up to `finest` plus the cap of the finest one;
+    /// adjacent index ranges are merged into one draw call (no frustum: nothing culled, for
+    /// tests). `radius_range_m(level)` bounds the distance from the planet's centre of the
+    /// terrain within that level's outer ring. `finest` below the selection's finest leaves
+    /// the levels a planar method covers undrawn (`u32::MAX`: every drawn level).
     pub fn build(
         mesh: &RingMesh,
         bounds: &SectorBounds,
@@ -305,6 +306,7 @@ impl DrawList {
         densities: &DensityPlan,
         frustum: Option<&Frustum>,
         radius_range_m: impl Fn(u32) -> (f64, f64),
+        finest: u32,
     ) -> Self {
         let mut list = DrawList::default();
         // `count`: the part that stands for its sector in the drawn/culled counts.
@@ -329,7 +331,8 @@ impl DrawList {
                 }
             }
         };
-        for level in selection.drawn_levels() {
+        let finest = finest.min(selection.finest);
+        for level in selection.drawn_levels().filter(|&l| l <= finest) {
             let (lo, hi) = radius_range_m(level);
             let d = densities.levels[level as usize];
             let r = &mesh.levels[level as usize][d.body.k as usize];
@@ -367,8 +370,8 @@ impl DrawList {
                 }
             }
         }
-        let f = selection.finest as usize;
-        let (lo, hi) = radius_range_m(selection.finest);
+        let f = finest as usize;
+        let (lo, hi) = radius_range_m(finest);
         let d = densities.levels[f];
         let cap = if d.inner.morph > 0.0 {
             Variant::Morph

@@ -51,6 +51,10 @@ pub struct ClipmapPlan {
     /// Test hook: changes each drawn level's density (given the mesh's coarsest) after the
     /// plan chose it (`tests/density.rs` compares a morphed density with the next one).
     pub density_map: Option<DensityMap>,
+    /// The angle around the viewer a planar LOD method covers wholly (0: none). Levels inside
+    /// it are filled (the planar method samples them) but not drawn; the cap of the finest
+    /// level drawn covers the hole, under the planar method's square.
+    pub covered_rad: f64,
 }
 
 /// A change of each level's density: (level, chosen, the mesh's coarsest k) → drawn.
@@ -113,6 +117,7 @@ impl ClipmapPlan {
             approx_start_level: approx_ok.then_some(settings.approx_start_level),
             densities: DensityPlan::full(settings.levels),
             density_map: None,
+            covered_rad: 0.0,
         }
     }
 
@@ -181,6 +186,12 @@ impl ClipmapPlan {
             let (lo, hi) = query.height_bounds_near_m(nadir, level_outer_theta_rad(level));
             (view.radius_m + lo, view.radius_m + hi)
         };
+        // The finest level a planar method leaves to the clipmap: at least the coarsest.
+        let mut finest = self.selection.finest;
+        while finest > self.selection.coarsest && level_outer_theta_rad(finest) <= self.covered_rad
+        {
+            finest -= 1;
+        }
         self.draw = DrawList::build(
             mesh,
             bounds,
@@ -188,6 +199,7 @@ impl ClipmapPlan {
             &self.densities,
             (!draw_all_sectors).then_some(&frustum),
             radius_range_m,
+            finest,
         );
     }
 

@@ -27,6 +27,10 @@ pub const SPACING_PER_HEIGHT: f64 = 1.0 / 16.0;
 /// Finest spacing limits, metres.
 pub const MIN_SPACING_M: f64 = 1.0 / 64.0;
 pub const MAX_SPACING_M: f64 = 4096.0;
+/// The clipmap's cut is the planar square shrunk by this fraction of its side on every edge:
+/// in the band between, both draw the same surface (their depths decide), so wherever the
+/// planar edge lies below the clipmap's surface the clipmap still covers the step.
+pub const PLANAR_OVERLAP: f64 = 1.0 / 32.0;
 /// Patches whose δ the plan computes per frame at most (289 heights each with 17²).
 pub const NEW_PATCHES_PER_FRAME: usize = 256;
 
@@ -65,6 +69,18 @@ pub struct GeomipPlan {
     pub square_m: [DVec2; 2],
     /// Patches in view whose δ is not computed yet (drawn at level 0): the frame is not settled.
     pub waiting: usize,
+    /// The angle around the viewer inside the clipmap's cut (the clipmap need not draw the
+    /// levels within it).
+    pub covered_rad: f64,
+}
+
+impl GeomipPlan {
+    /// The square where the clipmap's fragments go ([`PLANAR_OVERLAP`] inside the grid's).
+    pub fn cut_m(&self) -> [DVec2; 2] {
+        let [lo, hi] = self.square_m;
+        let band = (hi - lo) * PLANAR_OVERLAP;
+        [lo + band, hi - band]
+    }
 }
 
 impl GeomipState {
@@ -225,7 +241,7 @@ impl GeomipState {
             let (x, y) = (i % cols, i / cols);
             outer_sides.push([y == 0, x + 1 == cols, y + 1 == cols, x == 0]);
         }
-        GeomipPlan {
+        let mut plan = GeomipPlan {
             frame,
             spacing_m: spacing,
             patches,
@@ -235,7 +251,13 @@ impl GeomipState {
                 plane(corner_of(cols * cols - 1), cells as f64, cells as f64),
             ],
             waiting,
-        }
+            covered_rad: 0.0,
+        };
+        let [clo, chi] = plan.cut_m();
+        let pv = frame.plane_of(nadir).unwrap_or_default();
+        let inside = (pv - clo).min(chi - pv).min_element();
+        plan.covered_rad = inside.max(0.0) / radius;
+        plan
     }
 }
 
@@ -257,6 +279,10 @@ mod tests {
         }
     }
 
+    fn radius_of(view: &ViewPlan) -> f64 {
+        view.radius_m
+    }
+
     #[test]
     fn grid_follows_the_viewer_and_levels_grow_with_distance() {
         let terrain = Terrain::analytic_earth();
@@ -276,6 +302,13 @@ mod tests {
             plan.patches.len()
         );
         assert_eq!(plan.waiting, 0);
+        // The clipmap may leave out a disc of at least a third of the square's side.
+        let side = plan.square_m[1].x - plan.square_m[0].x;
+        assert!(
+            plan.covered_rad * radius_of(&view) > side / 3.0,
+            "{}",
+            plan.covered_rad
+        );
         // The viewer lies inside the square.
         let p = plan.frame.plane_of(view.nadir()).unwrap();
         assert!(p.cmpgt(plan.square_m[0]).all() && p.cmplt(plan.square_m[1]).all());

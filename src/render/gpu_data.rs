@@ -517,11 +517,6 @@ pub struct PatchGpu {
     pub sides: [f32; 4],
 }
 
-/// The clipmap's cut is the planar square shrunk by this fraction of its side on every edge:
-/// in the band between, both draw the same surface (their depths decide), so wherever the
-/// planar edge lies below the clipmap's surface the clipmap still covers the step.
-pub const PLANAR_OVERLAP: f64 = 1.0 / 32.0;
-
 impl PlanarUniforms {
     /// Nothing planar this frame: the clipmap draws everywhere.
     pub fn inactive() -> Self {
@@ -533,9 +528,9 @@ impl PlanarUniforms {
         let view_from_world = view.camera.view_frame().world_from_view.transpose();
         let [a, e, n] = plan.frame.view_basis(&view_from_world);
         let v4 = |v: DVec3| [v.x as f32, v.y as f32, v.z as f32, 0.0];
-        let [lo, hi] = plan.square_m;
-        let band = (hi - lo) * PLANAR_OVERLAP;
-        let (clo, chi) = (lo + band, hi - band);
+        let lo = plan.square_m[0];
+        let [clo, chi] = plan.cut_m();
+        let band = clo - lo;
         // Deep enough to hide any step between the two surfaces at the square's edge: the
         // band's width (a slope of 1 across the band).
         let skirt_m = band.x.max(band.y);

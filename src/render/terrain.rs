@@ -848,17 +848,6 @@ impl TerrainRenderer {
             |level| detail.map_or(0, |d| d.level_octaves(level, blend).partial),
             normal_timestamps,
         );
-        clipmap.limit_to_held(&self.grids);
-        clipmap.density_map = self.density_map;
-        clipmap.cull(
-            &view,
-            &self.settings,
-            &self.mesh,
-            &self.bounds,
-            self.query(),
-            self.draw_all_sectors,
-        );
-
         // A planar method near the viewer (its heights come from the levels just filled).
         let planar_on = self
             .lod
@@ -870,11 +859,23 @@ impl TerrainRenderer {
             let mut state = std::mem::take(&mut self.geomip_state);
             let plan = state.plan(&view, &self.lod.geomip, self.query());
             self.geomip_state = state;
+            clipmap.covered_rad = plan.covered_rad;
             Some(self.planar.write_geomip(queue, &view, &plan))
         } else {
             self.planar.write_inactive(queue);
             None
         };
+
+        clipmap.limit_to_held(&self.grids);
+        clipmap.density_map = self.density_map;
+        clipmap.cull(
+            &view,
+            &self.settings,
+            &self.mesh,
+            &self.bounds,
+            self.query(),
+            self.draw_all_sectors,
+        );
 
         let levels =
             gpu_data::level_uniforms(&view, &self.grids, &clipmap.densities, detail, blend);
