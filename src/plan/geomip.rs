@@ -6,8 +6,8 @@
 //! number of patches, so the lattice stays put on the ground), the finest spacing (a power of
 //! two near a sixteenth of the height above the terrain, changed with a factor-of-two hysteresis)
 //! and each patch's δ_k, computed once from the terrain function when the patch first comes
-//! into view (a bounded number per frame; until then a patch draws at level 0, which has no
-//! error of its own).
+//! into view (for at most [`DELTA_BUDGET`] of CPU time per frame; until then a patch draws at
+//! level 0, which has no error of its own, and the frame is not settled).
 
 use std::collections::HashMap;
 
@@ -31,8 +31,10 @@ pub const MAX_SPACING_M: f64 = 4096.0;
 /// in the band between, both draw the same surface (their depths decide), so wherever the
 /// planar edge lies below the clipmap's surface the clipmap still covers the step.
 pub const PLANAR_OVERLAP: f64 = 1.0 / 32.0;
-/// Patches whose δ the plan computes per frame at most (289 heights each with 17²).
-pub const NEW_PATCHES_PER_FRAME: usize = 256;
+/// CPU time a frame spends measuring patches' δ at most (289 heights each with 17²; at least
+/// [`MIN_PATCHES_PER_FRAME`] patches): a moving viewer's new patches never stall a frame.
+pub const DELTA_BUDGET: std::time::Duration = std::time::Duration::from_millis(4);
+pub const MIN_PATCHES_PER_FRAME: usize = 4;
 
 /// What the geomipmapping mode keeps between frames.
 #[derive(Debug, Default)]
@@ -156,6 +158,7 @@ impl GeomipState {
         let mut visible = vec![false; cols * cols];
         let mut waiting = 0;
         let mut computed = 0;
+        let started = std::time::Instant::now();
         let n = settings.patch_size;
         for (i, level) in levels.iter_mut().enumerate() {
             let c = corner_of(i);
@@ -182,7 +185,7 @@ impl GeomipState {
             let stale = known.as_ref().is_some_and(|d| arc < 0.5 * d.arc_rad);
             let data = match known {
                 Some(d) if !stale => d,
-                _ if computed < NEW_PATCHES_PER_FRAME => {
+                _ if computed < MIN_PATCHES_PER_FRAME || started.elapsed() < DELTA_BUDGET => {
                     computed += 1;
                     let heights: Vec<f64> = (0..n * n)
                         .map(|v| {
