@@ -29,7 +29,8 @@ struct PatchGpu {
     corner: vec2<i32>,
     // Continuous level ℓ = k + tween factor (planar::geomip::continuous_level).
     level: f32,
-    _pad: u32,
+    // Δφ of the patch's centre from the viewer's (coarse: it only picks the side of ±π).
+    centre_dphi: f32,
     // Border levels ℓ_e (south, east, north, west).
     sides: vec4<f32>,
 }
@@ -231,8 +232,7 @@ fn geomip_vertex(index: u32, instance: u32) -> VertexOut {
 
     // Δφ near the patch's own: a patch around a pole must not interpolate across the ±π cut.
     var d = pt.at.d;
-    let centre = planar_point(vec2<f32>(c + vec2<i32>(i32(n / 2u))) * planar.spacing_m).at.d;
-    d.x = centre.x + (d.x - centre.x) - 6.28318531 * round((d.x - centre.x) / 6.28318531);
+    d.x -= 6.28318531 * round((d.x - pd.centre_dphi) / 6.28318531);
 
     let p = pt.p;
     let r = frame.radius_m + h;

@@ -23,6 +23,7 @@ use std::sync::OnceLock;
 
 use glam::{DMat3, DMat4, DVec2, DVec3, Vec3, Vec4};
 use globe::clipmap::density::{Density, DensityPlan};
+use globe::clipmap::selection::PlanarCut;
 use globe::clipmap::selection::{DrawList, Frustum, LevelSelection, LevelStatus, SectorBounds};
 use globe::clipmap::settings::level_outer_theta_rad;
 use globe::clipmap::{ClipmapSettings, RingMesh};
@@ -478,7 +479,7 @@ fn every_camera_gives_finite_frames_transforms_bounds_and_selection() {
                             EARTH_RADIUS_M + EARTH_TERRAIN_MAX_M,
                         )
                     },
-                    u32::MAX,
+                    PlanarCut::NONE,
                 );
                 let sectors = (sel.drawn_levels().len() as u32 + 1) * settings.sectors;
                 prop_assert_eq!(list.sectors_drawn + list.sectors_culled, sectors);

@@ -281,6 +281,25 @@ pub enum Variant {
     Morph,
 }
 
+/// What a planar LOD method near the viewer leaves to the clipmap.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PlanarCut {
+    /// The finest level drawn (those finer are filled, the planar method samples them, but lie
+    /// wholly under its square).
+    pub finest: u32,
+    /// Levels whose inner edge lies within this angle of the viewer reach into the square: their
+    /// ranges start at [`DrawList::first_cut`].
+    pub cut_rad: f64,
+}
+
+impl PlanarCut {
+    /// No planar method: every drawn level, nothing cut.
+    pub const NONE: PlanarCut = PlanarCut {
+        finest: u32::MAX,
+        cut_rad: 0.0,
+    };
+}
+
 /// Index ranges to draw and what was skipped.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct DrawList {
@@ -291,14 +310,18 @@ pub struct DrawList {
     pub triangles: u64,
     pub sectors_drawn: u32,
     pub sectors_culled: u32,
+    /// Ranges from this index on belong to levels a planar method's square reaches into: only
+    /// they need the pipelines that cut the square out (a fragment discard costs the coarser
+    /// levels' early depth test otherwise). `ranges.len()` when none do.
+    pub first_cut: usize,
 }
 
 impl DrawList {
     /// Visible sectors of the drawn levels up to `finest` plus the cap of the finest one;
     /// adjacent index ranges are merged into one draw call (no frustum: nothing culled, for
     /// tests). `radius_range_m(level)` bounds the distance from the planet's centre of the
-    /// terrain within that level's outer ring. `finest` below the selection's finest leaves
-    /// the levels a planar method covers undrawn (`u32::MAX`: every drawn level).
+    /// terrain within that level's outer ring. `planar`: what a planar method near the viewer
+    /// leaves to the clipmap ([`PlanarCut::NONE`]: everything).
     pub fn build(
         mesh: &RingMesh,
         bounds: &SectorBounds,
@@ -306,9 +329,11 @@ impl DrawList {
         densities: &DensityPlan,
         frustum: Option<&Frustum>,
         radius_range_m: impl Fn(u32) -> (f64, f64),
-        finest: u32,
+        planar: PlanarCut,
     ) -> Self {
+        let PlanarCut { finest, cut_rad } = planar;
         let mut list = DrawList::default();
+        let mut first_cut = None;
         // `count`: the part that stands for its sector in the drawn/culled counts.
         let push = |list: &mut DrawList,
                     range: &Range<u32>,
@@ -333,6 +358,12 @@ impl DrawList {
         };
         let finest = finest.min(selection.finest);
         for level in selection.drawn_levels().filter(|&l| l <= finest) {
+            if first_cut.is_none() && 0.5 * level_outer_theta_rad(level) < cut_rad {
+                // From here on no range merges with one before.
+                first_cut = Some(list.ranges.len());
+                list.ranges.push(0..0);
+                list.variants.push(Variant::Plain);
+            }
             let (lo, hi) = radius_range_m(level);
             let d = densities.levels[level as usize];
             let r = &mesh.levels[level as usize][d.body.k as usize];
@@ -385,6 +416,7 @@ impl DrawList {
         {
             push(&mut list, range, &cone.bounding_sphere(lo, hi), true, cap);
         }
+        list.first_cut = first_cut.unwrap_or(list.ranges.len());
         list
     }
 }

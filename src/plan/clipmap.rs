@@ -12,7 +12,7 @@ use std::f64::consts::PI;
 
 use crate::clipmap::density::{Density, DensityPlan, ScreenScale};
 use crate::clipmap::levels::{GridRect, LevelGrid};
-use crate::clipmap::selection::{DrawList, Frustum, LevelSelection, SectorBounds};
+use crate::clipmap::selection::{DrawList, Frustum, LevelSelection, PlanarCut, SectorBounds};
 use crate::clipmap::settings::level_outer_theta_rad;
 use crate::clipmap::{ClipmapSettings, RingMesh};
 use crate::geo::visibility;
@@ -55,6 +55,9 @@ pub struct ClipmapPlan {
     /// it are filled (the planar method samples them) but not drawn; the cap of the finest
     /// level drawn covers the hole, under the planar method's square.
     pub covered_rad: f64,
+    /// The angle around the viewer within which a planar method's square reaches (0: none):
+    /// levels reaching inside it draw with the pipelines that cut the square out.
+    pub cut_rad: f64,
 }
 
 /// A change of each level's density: (level, chosen, the mesh's coarsest k) → drawn.
@@ -118,6 +121,7 @@ impl ClipmapPlan {
             densities: DensityPlan::full(settings.levels),
             density_map: None,
             covered_rad: 0.0,
+            cut_rad: 0.0,
         }
     }
 
@@ -199,7 +203,10 @@ impl ClipmapPlan {
             &self.densities,
             (!draw_all_sectors).then_some(&frustum),
             radius_range_m,
-            finest,
+            PlanarCut {
+                finest,
+                cut_rad: self.cut_rad,
+            },
         );
     }
 

@@ -72,8 +72,10 @@ pub struct GeomipPlan {
     /// Patches in view whose δ is not computed yet (drawn at level 0): the frame is not settled.
     pub waiting: usize,
     /// The angle around the viewer inside the clipmap's cut (the clipmap need not draw the
-    /// levels within it).
+    /// levels within it)…
     pub covered_rad: f64,
+    /// …and the angle within which the cut lies (levels reaching inside it cut it out).
+    pub cut_reach_rad: f64,
 }
 
 impl GeomipPlan {
@@ -255,11 +257,15 @@ impl GeomipState {
             ],
             waiting,
             covered_rad: 0.0,
+            cut_reach_rad: 0.0,
         };
         let [clo, chi] = plan.cut_m();
         let pv = frame.plane_of(nadir).unwrap_or_default();
         let inside = (pv - clo).min(chi - pv).min_element();
         plan.covered_rad = inside.max(0.0) / radius;
+        // The farthest corner of the cut, with a margin for the gnomonic map's stretch.
+        let far = (pv - clo).abs().max((chi - pv).abs()).length();
+        plan.cut_reach_rad = 1.01 * far / radius;
         plan
     }
 }

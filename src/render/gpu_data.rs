@@ -513,7 +513,9 @@ pub struct PlanarUniforms {
 pub struct PatchGpu {
     pub corner: [i32; 2],
     pub level: f32,
-    pub _pad: u32,
+    /// Δφ of the patch's centre from the viewer's, in (−π, π]: a vertex's Δφ is taken on the
+    /// same side of the ±π cut, so no triangle around a pole interpolates across it.
+    pub centre_dphi: f32,
     pub sides: [f32; 4],
 }
 
@@ -548,11 +550,15 @@ impl PlanarUniforms {
 }
 
 impl PatchGpu {
-    pub fn new(patch: &Patch) -> Self {
+    pub fn new(view: &ViewPlan, plan: &GeomipPlan, patch: &Patch, patch_cells: u32) -> Self {
+        let half = 0.5 * patch_cells as f64;
+        let centre = glam::DVec2::new(patch.corner[0] as f64 + half, patch.corner[1] as f64 + half);
+        let u = plan.frame.unit_at(centre * plan.spacing_m);
+        let dphi = crate::geo::sphere::wrap_angle_rad(u.y.atan2(u.x) - view.phi_v_rad);
         Self {
             corner: [patch.corner[0] as i32, patch.corner[1] as i32],
             level: patch.level as f32,
-            _pad: 0,
+            centre_dphi: dphi as f32,
             sides: patch.sides.map(|s| s as f32),
         }
     }
@@ -561,7 +567,7 @@ impl PatchGpu {
 gpu_struct!(PlanarUniforms as "PlanarUniforms" {
     anchor, east, north, cut, spacing_m, patch_cells, skirt_m, drawing,
 });
-gpu_struct!(PatchGpu as "PatchGpu" { corner, level, sides });
+gpu_struct!(PatchGpu as "PatchGpu" { corner, level, centre_dphi, sides });
 gpu_struct!(DetailOctaveParams as "DetailOctave" { m0, m1, m2, cell });
 gpu_struct!(BumpUniforms as "BumpUniforms" {
     octaves, amplitudes, sigma, lambda_px, world0, world1, world2,

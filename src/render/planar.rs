@@ -171,7 +171,7 @@ impl PlanarResources {
             .patches
             .iter()
             .take(MAX_PATCHES)
-            .map(PatchGpu::new)
+            .map(|p| PatchGpu::new(view, plan, p, cells))
             .collect();
         queue.write_buffer(&self.patches, 0, bytemuck::cast_slice(&patches));
         let mut draw = PlanarDraw {

@@ -860,6 +860,7 @@ impl TerrainRenderer {
             let plan = state.plan(&view, &self.lod.geomip, self.query());
             self.geomip_state = state;
             clipmap.covered_rad = plan.covered_rad;
+            clipmap.cut_rad = plan.cut_reach_rad;
             Some(self.planar.write_geomip(queue, &view, &plan))
         } else {
             self.planar.write_inactive(queue);
@@ -1011,13 +1012,23 @@ impl TerrainRenderer {
             .wire_pipelines
             .as_ref()
             .filter(|_| self.overlays.wireframe && !self.use_passthrough);
-        let clipmap = match (wire, planar) {
-            (Some(w), Some(_)) => &w.clipmap_cut,
-            (Some(w), None) => &w.clipmap,
-            (None, Some((_, p))) => &p.clipmap_cut,
-            (None, None) => &self.pipelines,
+        let uncut = match wire {
+            Some(w) => &w.clipmap,
+            None => &self.pipelines,
         };
-        for (range, &variant) in info.draw.ranges.iter().zip(&info.draw.variants) {
+        let cut = match (wire, planar) {
+            (Some(w), Some(_)) => &w.clipmap_cut,
+            (None, Some((_, p))) => &p.clipmap_cut,
+            (_, None) => uncut,
+        };
+        for (i, (range, &variant)) in info.draw.ranges.iter().zip(&info.draw.variants).enumerate() {
+            if range.is_empty() {
+                continue;
+            }
+            let clipmap = if i >= info.draw.first_cut { cut } else { uncut };
+            if i == info.draw.first_cut {
+                current = None;
+            }
             if current != Some(variant) {
                 pass.set_pipeline(if self.use_passthrough {
                     &self.passthrough
