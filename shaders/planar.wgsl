@@ -234,33 +234,8 @@ fn geomip_vertex(index: u32, instance: u32) -> VertexOut {
     var d = pt.at.d;
     d.x -= 6.28318531 * round((d.x - pd.centre_dphi) / 6.28318531);
 
-    let p = pt.p;
-    let r = frame.radius_m + h;
-    let rel = vec3<f32>(
-        r * p.x,
-        r * p.y,
-        ((h - frame.eye_height_m) - frame.eye_height_lo_m) - r * pt.one_minus_cos,
-    );
-    var out: VertexOut;
-    out.clip = frame.clip_from_view * vec4<f32>(rel, 1.0);
-    out.map_pos = d;
-    out.p_tilde = p;
-    out.coarse_blend = pt.at.blend;
-    out.level = pt.level;
-    out.rel = rel;
+    var out = placed_vertex(pt.p, pt.one_minus_cos, h, d, pt.at.blend, pt.level);
     out.plane_xy = q;
-    out.bary = vec3<f32>(1.0);
     out.tag = 64u + u32(floor(pd.level));
-    out.inscatter = vec3<f32>(0.0);
-    out.view_t = vec3<f32>(1.0);
-    out.sun_t = vec3<f32>(1.0);
-    if SKY {
-        let eye = vec3<f32>(0.0, 0.0, look.eye_radius_m);
-        let dist = length(rel);
-        let s = atmosphere_scatter(eye, rel / max(dist, 1e-6), dist, look.sun.xyz, 6u);
-        out.inscatter = s.inscatter;
-        out.view_t = s.transmittance;
-        out.sun_t = sun_transmittance(eye + rel, look.sun.xyz);
-    }
     return out;
 }

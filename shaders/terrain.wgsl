@@ -371,9 +371,20 @@ fn ring_vertex(v: RingVertex, index: u32) -> VertexOut {
         }
     }
 
-    let h = at.h;
-    // Position relative to the eye in view space: the eye is at (0, 0, R + h_eye).
-    // z = (h − h_eye) − (R + h)·(1 − cos θ̃) (DESIGN.md), with 1 − cos θ̃ from f64.
+    // 1 − cos θ̃ from f64 (the mesh's), morphed like p̃.
+    var out = placed_vertex(p, one_minus_cos, at.h, at.d, at.blend, v.level);
+    out.tag = v.level;
+    out.plane_xy = vec2<f32>(3.0e38);
+    if CUT {
+        out.plane_xy = plane_coords(p);
+    }
+    return out;
+}
+
+// A vertex at view direction p and height h, the rest of its placement given: the position
+// relative to the eye (the eye is at (0, 0, R + h_eye); z = (h − h_eye) − (R + h)·(1 − cos θ̃),
+// DESIGN.md) and the haze integrated toward it. Both LOD methods' vertex stages end here.
+fn placed_vertex(p: vec3<f32>, one_minus_cos: f32, h: f32, d: vec2<f32>, blend: f32, level: u32) -> VertexOut {
     let r = frame.radius_m + h;
     let rel = vec3<f32>(
         r * p.x,
@@ -382,17 +393,12 @@ fn ring_vertex(v: RingVertex, index: u32) -> VertexOut {
     );
     var out: VertexOut;
     out.clip = frame.clip_from_view * vec4<f32>(rel, 1.0);
-    out.map_pos = at.d;
+    out.map_pos = d;
     out.p_tilde = p;
-    out.coarse_blend = at.blend;
-    out.level = v.level;
+    out.coarse_blend = blend;
+    out.level = level;
     out.rel = rel;
     out.bary = vec3<f32>(1.0);
-    out.tag = v.level;
-    out.plane_xy = vec2<f32>(3.0e38);
-    if CUT {
-        out.plane_xy = plane_coords(p);
-    }
     out.inscatter = vec3<f32>(0.0);
     out.view_t = vec3<f32>(1.0);
     out.sun_t = vec3<f32>(1.0);

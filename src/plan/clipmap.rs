@@ -12,7 +12,7 @@ use std::f64::consts::PI;
 
 use crate::clipmap::density::{Density, DensityPlan, ScreenScale};
 use crate::clipmap::levels::{GridRect, LevelGrid};
-use crate::clipmap::selection::{DrawList, Frustum, LevelSelection, PlanarCut, SectorBounds};
+use crate::clipmap::selection::{DrawList, LevelSelection, PlanarCut, SectorBounds};
 use crate::clipmap::settings::level_outer_theta_rad;
 use crate::clipmap::{ClipmapSettings, RingMesh};
 use crate::geo::visibility;
@@ -178,13 +178,7 @@ impl ClipmapPlan {
             self.draw = DrawList::default();
             return;
         }
-        let frustum = Frustum::new(
-            view.camera_from_view,
-            view.eye_view_m(),
-            view.fov_y_rad,
-            view.aspect,
-            view.near_m,
-        );
+        let frustum = view.frustum();
         let nadir = view.nadir();
         let radius_range_m = |level: u32| {
             let (lo, hi) = query.height_bounds_near_m(nadir, level_outer_theta_rad(level));

@@ -13,7 +13,7 @@ use std::collections::HashMap;
 
 use glam::DVec2;
 
-use crate::clipmap::selection::{Frustum, Sphere};
+use crate::clipmap::selection::Sphere;
 use crate::geo::sphere;
 use crate::planar::LocalFrame;
 use crate::planar::geomip::{
@@ -143,13 +143,7 @@ impl GeomipState {
             DVec2::new((c[0] as f64 + x) * spacing, (c[1] as f64 + y) * spacing)
         };
 
-        let frustum = Frustum::new(
-            view.camera_from_view,
-            view.eye_view_m(),
-            view.fov_y_rad,
-            view.aspect,
-            view.near_m,
-        );
+        let frustum = view.frustum();
         let world_from_view = view.camera.view_frame().world_from_view;
         let view_from_world = world_from_view.transpose();
         let eye_world = nadir * (radius + view.camera.altitude_m);
@@ -303,7 +297,15 @@ mod tests {
         let ground = terrain.height_at_lat_lon_m(45.65, 10.65);
         let cam = camera(ground + 40.0, -20.0);
         let view = ViewPlan::new(&cam, 640, 400, &terrain);
-        let plan = state.plan(&view, &settings, &terrain);
+        // As a settling frame does: plan until every patch in view has its δ (a frame measures
+        // them within its CPU budget).
+        let mut plan = state.plan(&view, &settings, &terrain);
+        for _ in 0..1000 {
+            if plan.waiting == 0 {
+                break;
+            }
+            plan = state.plan(&view, &settings, &terrain);
+        }
         assert_eq!(plan.spacing_m, 2.0, "a sixteenth of 40 m, a power of two");
         assert!(
             !plan.patches.is_empty() && plan.patches.len() < 64,

@@ -202,6 +202,17 @@ impl ViewPlan {
         DVec3::new(0.0, 0.0, self.radius_m + self.camera.altitude_m)
     }
 
+    /// The view frustum (culling).
+    pub fn frustum(&self) -> crate::clipmap::selection::Frustum {
+        crate::clipmap::selection::Frustum::new(
+            self.camera_from_view,
+            self.eye_view_m(),
+            self.fov_y_rad,
+            self.aspect,
+            self.near_m,
+        )
+    }
+
     /// The viewer's unit vector in world space (the nadir).
     pub fn nadir(&self) -> DVec3 {
         sphere::unit_vector(self.phi_v_rad, self.theta_v_rad)

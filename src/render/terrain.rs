@@ -1166,89 +1166,78 @@ impl PipelineParts {
         ]
     }
 
-    /// The clipmap's three variants cutting out a planar square, and geomipmapping's pipeline
-    /// (the same fragment stage: the same shading wherever a fragment comes from).
+    /// The clipmap's three variants (plain, blend band, morphing levels) drawn by vertex entry
+    /// `vs`: `vs_main` from the ring vertex buffer, `vs_main_wire` (the wireframe overlay)
+    /// pulling its indices; `cut` leaves a planar method's square out.
+    fn clipmap_variants(
+        &self,
+        device: &wgpu::Device,
+        look: LookSettings,
+        vs: &str,
+        cut: bool,
+    ) -> [wgpu::RenderPipeline; 3] {
+        [(false, false), (false, true), (true, true)].map(|(morph, blend)| {
+            let c = self.constants(look, morph, blend, cut);
+            let label = format!("terrain {vs} (morph {morph}, blend {blend}, cut {cut})");
+            self.pipeline(
+                device,
+                &label,
+                vs,
+                "fs_main",
+                &c,
+                vs == "vs_main",
+                Some(wgpu::Face::Back),
+            )
+        })
+    }
+
+    /// Geomipmapping's pipeline with vertex entry `vs` (`vs_geomip`, or `vs_geomip_wire` for
+    /// the wireframe overlay): the clipmap's fragment stage, so the same shading wherever a
+    /// fragment comes from. Skirts carry both windings; the patches are counter-clockwise.
+    fn geomip_pipeline(
+        &self,
+        device: &wgpu::Device,
+        look: LookSettings,
+        geomorph: bool,
+        vs: &str,
+    ) -> wgpu::RenderPipeline {
+        let mut c = self.constants(look, false, true, false);
+        c.push(("GEOMORPH", if geomorph { 1.0 } else { 0.0 }));
+        self.pipeline(
+            device,
+            &format!("geomipmapping {vs}"),
+            vs,
+            "fs_main",
+            &c,
+            false,
+            Some(wgpu::Face::Back),
+        )
+    }
+
+    /// The clipmap's variants cutting out a planar square, and geomipmapping's pipeline.
     fn build_planar(
         &self,
         device: &wgpu::Device,
         look: LookSettings,
         geomorph: bool,
     ) -> PlanarPipelines {
-        let variant = |label, morph, blend| {
-            let c = self.constants(look, morph, blend, true);
-            self.pipeline(
-                device,
-                label,
-                "vs_main",
-                "fs_main",
-                &c,
-                true,
-                Some(wgpu::Face::Back),
-            )
-        };
-        let mut c = self.constants(look, false, true, false);
-        c.push(("GEOMORPH", if geomorph { 1.0 } else { 0.0 }));
         PlanarPipelines {
-            clipmap_cut: [
-                variant("terrain pipeline, cut", false, false),
-                variant("terrain pipeline (blend band), cut", false, true),
-                variant("terrain pipeline (morphing levels), cut", true, true),
-            ],
-            // Skirts are drawn with both windings; the patches are counter-clockwise.
-            geomip: self.pipeline(
-                device,
-                "geomipmapping pipeline",
-                "vs_geomip",
-                "fs_main",
-                &c,
-                false,
-                Some(wgpu::Face::Back),
-            ),
+            clipmap_cut: self.clipmap_variants(device, look, "vs_main", true),
+            geomip: self.geomip_pipeline(device, look, geomorph, "vs_geomip"),
         }
     }
 
-    /// The wireframe overlay's pipelines (no vertex buffers, culling off: the overlay shows
-    /// every triangle the method draws, skirts included).
+    /// The wireframe overlay's pipelines: every method's, drawn without an index buffer.
     fn build_wire(
         &self,
         device: &wgpu::Device,
         look: LookSettings,
         geomorph: bool,
     ) -> WirePipelines {
-        let variant = |label, morph, blend, cut| {
-            let c = self.constants(look, morph, blend, cut);
-            self.pipeline(
-                device,
-                label,
-                "vs_main_wire",
-                "fs_main",
-                &c,
-                false,
-                Some(wgpu::Face::Back),
-            )
-        };
-        let mut c = self.constants(look, false, true, false);
-        c.push(("GEOMORPH", if geomorph { 1.0 } else { 0.0 }));
         WirePipelines {
-            clipmap: [
-                variant("wireframe", false, false, false),
-                variant("wireframe (blend band)", false, true, false),
-                variant("wireframe (morphing levels)", true, true, false),
-            ],
-            clipmap_cut: [
-                variant("wireframe, cut", false, false, true),
-                variant("wireframe (blend band), cut", false, true, true),
-                variant("wireframe (morphing levels), cut", true, true, true),
-            ],
-            geomip: self.pipeline(
-                device,
-                "geomipmapping wireframe",
-                "vs_geomip_wire",
-                "fs_main",
-                &c,
-                false,
-                Some(wgpu::Face::Back),
-            ),
+            clipmap: self.clipmap_variants(device, look, "vs_main_wire", false),
+            clipmap_cut: self.clipmap_variants(device, look, "vs_main_wire", true),
+            geomip: self.geomip_pipeline(device, look, geomorph, "vs_geomip_wire"),
         }
     }
 
@@ -1260,23 +1249,7 @@ impl PipelineParts {
         device: &wgpu::Device,
         look: LookSettings,
     ) -> ([wgpu::RenderPipeline; 3], wgpu::RenderPipeline) {
-        let variant = |label, morph: bool, blend: bool| {
-            let c = self.constants(look, morph, blend, false);
-            self.pipeline(
-                device,
-                label,
-                "vs_main",
-                "fs_main",
-                &c,
-                true,
-                Some(wgpu::Face::Back),
-            )
-        };
-        let pipelines = [
-            variant("terrain pipeline", false, false),
-            variant("terrain pipeline (blend band)", false, true),
-            variant("terrain pipeline (morphing levels)", true, true),
-        ];
+        let pipelines = self.clipmap_variants(device, look, "vs_main", false);
         let passthrough = self.pipeline(
             device,
             "pass-through pipeline",
