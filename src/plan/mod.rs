@@ -226,3 +226,26 @@ fn sky_colour(altitude_m: f64) -> [f64; 3] {
     let high = [0.002, 0.002, 0.006];
     std::array::from_fn(|i| low[i] + (high[i] - low[i]) * t)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `auto` switches on below 1 000 m, off above 1 500 m, and holds its choice in between,
+    /// so a camera hovering near one threshold does not flip the method every frame.
+    #[test]
+    fn auto_mode_has_hysteresis() {
+        let descend = [3000.0, 1200.0, 999.0, 1200.0, 1499.0, 1501.0, 1200.0];
+        let mut on = false;
+        let seen: Vec<bool> = descend
+            .iter()
+            .map(|&h| {
+                on = LodMode::Auto.planar(h, on);
+                on
+            })
+            .collect();
+        assert_eq!(seen, [false, false, true, true, true, false, false]);
+        assert!(LodMode::Geomip.planar(1e7, false) && !LodMode::Clipmap.planar(0.0, true));
+        assert_eq!(LodMode::Auto.name(), "auto");
+    }
+}
