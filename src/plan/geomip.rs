@@ -128,7 +128,9 @@ impl GeomipState {
         self.frame = Some(frame);
 
         // The grid: cols × cols patches around the viewer's patch.
-        let v = frame.plane_of(nadir).unwrap_or_default() / patch_m;
+        // The viewer on the plane (computed once: every patch's distance starts from it).
+        let pv = frame.plane_of(nadir).unwrap_or_default();
+        let v = pv / patch_m;
         let first = [
             v.x.floor() as i64 - cols as i64 / 2,
             v.y.floor() as i64 - cols as i64 / 2,
@@ -174,7 +176,6 @@ impl GeomipState {
             visible[i] = true;
             // Nearest point of the patch to the eye: the viewer's plane position clamped into
             // the square (at the height in the patch's range nearest the eye's, below).
-            let pv = frame.plane_of(nadir).unwrap_or_default();
             let q = pv.clamp(plane(c, 0.0, 0.0), plane(c, cells as f64, cells as f64));
             let nearest_u = frame.unit_at(q);
             let arc = sphere::great_circle_distance_m(nearest_u, nadir, 1.0);
@@ -254,7 +255,6 @@ impl GeomipState {
             cut_reach_rad: 0.0,
         };
         let [clo, chi] = plan.cut_m();
-        let pv = frame.plane_of(nadir).unwrap_or_default();
         let inside = (pv - clo).min(chi - pv).min_element();
         plan.covered_rad = inside.max(0.0) / radius;
         // The farthest corner of the cut, with a margin for the gnomonic map's stretch.
