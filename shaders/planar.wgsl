@@ -21,6 +21,12 @@ struct PlanarUniforms {
     skirt_m: f32,
     // 1 when a planar mode draws this frame (the clipmap then cuts its square out).
     drawing: u32,
+    // The projected grid's cells per row and rows, its ray-march step in pixels' footprint
+    // and λ, pixels per radian (eq. 3).
+    grid_cols: u32,
+    grid_rows: u32,
+    ray_step_px: f32,
+    px_per_rad: f32,
 }
 
 // Rust twin: render::gpu_data::PatchGpu. One geomipmapping patch of this frame.
@@ -64,13 +70,19 @@ struct PlanarPoint {
 }
 
 fn planar_point(q: vec2<f32>) -> PlanarPoint {
-    var out: PlanarPoint;
     let r = frame.radius_m;
-    out.p = normalize(planar.anchor.xyz + planar.east.xyz * (q.x / r) + planar.north.xyz * (q.y / r));
-    let s2 = dot(out.p.xy, out.p.xy);
+    let p = normalize(planar.anchor.xyz + planar.east.xyz * (q.x / r) + planar.north.xyz * (q.y / r));
+    let s2 = dot(p.xy, p.xy);
     // 1 − cos θ̃ = |p̃xy|²/(1 + p̃z): no cancellation (DESIGN.md).
-    out.one_minus_cos = s2 / (1.0 + out.p.z);
-    let theta = atan2(sqrt(s2), out.p.z);
+    return unit_point(p, s2 / (1.0 + p.z), atan2(sqrt(s2), p.z));
+}
+
+// View direction p̃ (with its 1 − cos θ̃ and θ̃ from the viewer) placed as a clipmap vertex
+// would be: the level whose ring holds θ̃, the map transform, the height.
+fn unit_point(p: vec3<f32>, one_minus_cos: f32, theta: f32) -> PlanarPoint {
+    var out: PlanarPoint;
+    out.p = p;
+    out.one_minus_cos = one_minus_cos;
     // Level i holds θ̃ ∈ (2^−(i+1)π, 2^−iπ], ring_t = log2(2^−iπ/θ̃) (clipmap::mesh).
     let lf = log2(3.14159265 / max(theta, 1e-30));
     var level = u32(clamp(floor(lf), f32(frame.coarsest_level), f32(frame.finest_level)));
@@ -79,7 +91,7 @@ fn planar_point(q: vec2<f32>) -> PlanarPoint {
         ring_t = 1.0;
     }
     out.level = level;
-    out.at = place(out.p, 0.0, level, ring_t, theta);
+    out.at = place(p, 0.0, level, ring_t, theta);
     return out;
 }
 
@@ -237,5 +249,174 @@ fn geomip_vertex(index: u32, instance: u32) -> VertexOut {
     var out = placed_vertex(pt.p, pt.one_minus_cos, h, d, pt.at.blend, pt.level);
     out.plane_xy = q;
     out.tag = 64u + u32(floor(pd.level));
+    return out;
+}
+
+// ---------------------------------------------------------------------------------------------
+// The error-bounded projected grid (error-bounded-projective-grid.md, plan::projgrid): a grid
+// of view directions planned in f64 on the CPU each frame (the projector around the nadir,
+// optionally warped by importance), each vertex placed like a clipmap vertex at its θ̃, and a
+// per-cell error buffer (eq. 2–4): the fragments of cells with ρ > γ march their pixel ray
+// through the terrain function instead of trusting the mesh (fs_projgrid_ray).
+
+// Rust twin: render::gpu_data::GridVertexGpu: p̃x, p̃y, 1 − cos θ̃, θ̃ (f64 → f32 on the CPU,
+// so a vertex a metre from the viewer keeps its precision, as the ring mesh's do).
+@group(1) @binding(3) var<storage, read> grid_vertices: array<vec4<f32>>;
+// Per cell: the terrain's bounds inside it (min, max metres; min > max: no ray cast), the
+// normalised error of eq. 4 (the level overlay) and 0.
+@group(1) @binding(4) var<storage, read> grid_cells: array<vec4<f32>>;
+// The grid's triangle list, read by the wireframe draw (vs_projgrid_wire).
+@group(1) @binding(5) var<storage, read> grid_indices: array<u32>;
+
+// GRID_TAG (planar::projgrid): a projected-grid fragment's tag is this bit or'ed with its cell
+// (each cell's two triangles start at the cell's first vertex, which provides the flat value).
+// RAY_STEPS, RAY_BISECTIONS: the ray march's steps at most per fragment, then bisection steps on
+// the bracketed crossing.
+
+@vertex
+fn vs_projgrid(@builtin(vertex_index) index: u32) -> VertexOut {
+    return grid_vertex(index);
+}
+
+@vertex
+fn vs_projgrid_wire(@builtin(vertex_index) i: u32) -> VertexOut {
+    var out = grid_vertex(grid_indices[i]);
+    out.bary = corner_bary(i);
+    return out;
+}
+
+fn grid_vertex(index: u32) -> VertexOut {
+    let g = grid_vertices[index];
+    let pt = unit_point(vec3<f32>(g.x, g.y, 1.0 - g.z), g.z, g.w);
+    var out = placed_vertex(pt.p, pt.one_minus_cos, pt.at.h, pt.at.d, pt.at.blend, pt.level);
+    let cols = planar.grid_cols;
+    let i = min(index % (cols + 1u), cols - 1u);
+    let j = min(index / (cols + 1u), planar.grid_rows - 1u);
+    out.tag = GRID_TAG | (j * cols + i);
+    out.plane_xy = vec2<f32>(3.0e38);
+    return out;
+}
+
+// The eye's height above R (f32 pair summed).
+fn eye_height() -> f32 {
+    return frame.eye_height_m + frame.eye_height_lo_m;
+}
+
+// The point `rel` metres from the eye as a direction from the planet's centre, placed.
+// |E + rel| with E = (0, 0, R + h_eye): the small terms kept apart so a metre near the eye
+// keeps its precision (only ratios of the big ones are used).
+fn rel_point(rel: vec3<f32>) -> PlanarPoint {
+    let zc = frame.radius_m + (eye_height() + rel.z);
+    let s2 = dot(rel.xy, rel.xy);
+    let len = sqrt(zc * zc + s2);
+    let omc = s2 / (len * (len + zc));
+    return unit_point(vec3<f32>(rel.xy / len, 1.0 - omc), omc, atan2(sqrt(s2), zc));
+}
+
+// Height above R of the point `rel` from the eye: h_eye + rel.z + |rel.xy|²/(|E + rel| + zc).
+fn rel_altitude(rel: vec3<f32>) -> f32 {
+    let zc = frame.radius_m + (eye_height() + rel.z);
+    let s2 = dot(rel.xy, rel.xy);
+    let len = sqrt(zc * zc + s2);
+    return (eye_height() + rel.z) + s2 / (len + zc);
+}
+
+// Clearance of the ray's point at t above the terrain function (negative: inside).
+fn clearance(dir: vec3<f32>, t: f32) -> f32 {
+    let rel = dir * t;
+    return rel_altitude(rel) - rel_point(rel).at.h;
+}
+
+// Distances along the eye ray `dir` where it enters the shell [R + lo, R + hi] and where it
+// reaches R + lo (or leaves R + hi); x > y: it never enters (projgrid::shell_interval's twin,
+// c = |E|² − r² = (h_eye − h)(2R + h_eye + h), the near root c/(−b + √disc)).
+fn shell_interval(dir: vec3<f32>, lo: f32, hi: f32) -> vec2<f32> {
+    let r = frame.radius_m;
+    let he = eye_height();
+    let b = (r + he) * dir.z;
+    let c_hi = (he - hi) * (2.0 * r + he + hi);
+    let disc_hi = b * b - c_hi;
+    if c_hi > 0.0 && (b >= 0.0 || disc_hi < 0.0) {
+        return vec2<f32>(1.0, 0.0);
+    }
+    let sq = sqrt(max(disc_hi, 0.0));
+    let t_in = select(0.0, c_hi / (-b + sq), c_hi > 0.0);
+    let c_lo = (he - lo) * (2.0 * r + he + lo);
+    let disc_lo = b * b - c_lo;
+    var t_out = -b + sq;
+    if c_lo <= 0.0 {
+        t_out = t_in;
+    } else if b < 0.0 && disc_lo >= 0.0 {
+        t_out = c_lo / (-b + sqrt(disc_lo));
+    }
+    return vec2<f32>(t_in, t_out);
+}
+
+// The first crossing of the terrain along `dir` within the shell of the cell's bounds
+// (projgrid::ray_cast's twin): footprint-sized steps of planar.ray_step_px pixels (at least
+// 1/RAY_STEPS of the interval), then bisection. w = 0: no hit.
+fn ray_cast(dir: vec3<f32>, lo: f32, hi: f32) -> vec2<f32> {
+    let span = shell_interval(dir, lo, hi);
+    if span.x > span.y {
+        return vec2<f32>(0.0);
+    }
+    var a = span.x;
+    if clearance(dir, a) <= 0.0 {
+        return vec2<f32>(a, 1.0);
+    }
+    let per_m = planar.ray_step_px / planar.px_per_rad;
+    let min_step = (span.y - span.x) / f32(RAY_STEPS);
+    for (var k = 0u; k < RAY_STEPS; k++) {
+        var z = min(a + max(per_m * max(a, 1e-3), min_step), span.y);
+        if clearance(dir, z) <= 0.0 {
+            for (var m = 0u; m < RAY_BISECTIONS; m++) {
+                let mid = 0.5 * (a + z);
+                if clearance(dir, mid) > 0.0 {
+                    a = mid;
+                } else {
+                    z = mid;
+                }
+            }
+            return vec2<f32>(0.5 * (a + z), 1.0);
+        }
+        a = z;
+        if a >= span.y {
+            break;
+        }
+    }
+    return vec2<f32>(0.0);
+}
+
+struct RayCastOut {
+    @location(0) colour: vec4<f32>,
+    @builtin(frag_depth) depth: f32,
+}
+
+// Fragments of cells whose ρ exceeds γ are moved to their pixel ray's first hit (depth and
+// shading); a ray that grazes the cell without a hit is discarded (the terrain behind shows).
+@fragment
+fn fs_projgrid_ray(in: VertexOut) -> RayCastOut {
+    var v = in;
+    var depth = in.clip.z;
+    let cell = grid_cells[in.tag & ~GRID_TAG];
+    if cell.x <= cell.y {
+        let dir = normalize(in.rel);
+        let hit = ray_cast(dir, cell.x, cell.y);
+        if hit.y == 0.0 {
+            discard;
+        }
+        let rel = dir * hit.x;
+        let pt = rel_point(rel);
+        v.rel = rel;
+        v.p_tilde = pt.p;
+        v.map_pos = pt.at.d;
+        v.level = pt.level;
+        v.coarse_blend = pt.at.blend;
+        let clip = frame.clip_from_view * vec4<f32>(rel, 1.0);
+        depth = clip.z / clip.w;
+    }
+    var out: RayCastOut;
+    out.colour = shade(v);
+    out.depth = depth;
     return out;
 }

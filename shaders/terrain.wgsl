@@ -139,6 +139,8 @@ override SKY: bool = true;
 // (planar.wgsl). Geomorphing of the geomipmapping patches.
 override CUT: bool = false;
 override GEOMORPH: bool = true;
+// The projected grid's pipelines (planar.wgsl): its fragments' Δφ fix-up and cell overlay.
+override GRID: bool = false;
 
 @group(0) @binding(0) var<uniform> frame: FrameUniforms;
 @group(0) @binding(1) var<uniform> levels: array<LevelUniforms, MAX_LEVELS>;
@@ -593,8 +595,23 @@ fn view_from_world(v: vec3<f32>) -> vec3<f32> {
 
 @fragment
 fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
+    return shade(in);
+}
+
+// The shading of every terrain fragment, whichever LOD method placed it (the projected grid's
+// ray cast moves the fragment first: planar.wgsl fs_projgrid_ray).
+fn shade(in_: VertexOut) -> vec4<f32> {
+    var in = in_;
     if CUT && in_planar_cut(in.plane_xy) {
         discard;
+    }
+    if GRID {
+        // A projected-grid triangle across the ±π meridian (near a pole) interpolates Δφ
+        // through 0: recompute it from the direction there.
+        if fwidth(in.map_pos.x) > 1.0 {
+            let p = normalize(in.p_tilde);
+            in.map_pos = map_transform(p, sign(p.y), in.level, 0.0);
+        }
     }
     // Distance to the nearest edge in pixels (derivatives first: uniform control flow).
     let bary_px = in.bary / max(fwidth(in.bary), vec3<f32>(1e-6));
@@ -722,7 +739,11 @@ fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
     }
     if (frame.overlay & OVERLAY_LEVELS) != 0u {
         var tint = level_colour(in.tag);
-        if in.tag >= 64u {
+        if GRID && in.tag >= GRID_TAG {
+            // Projected-grid cells by their normalised error (eq. 4): 0 green, → 1 red.
+            let e = grid_cells[in.tag - GRID_TAG].z;
+            tint = mix(vec3<f32>(0.2, 0.85, 0.3), vec3<f32>(0.95, 0.1, 0.05), clamp(e, 0.0, 1.0));
+        } else if in.tag >= 64u {
             // Geomipmapping patches by tessellation level: finest white, then yellow to red.
             let k = f32(in.tag - 64u);
             tint = mix(vec3<f32>(1.0, 1.0, 1.0), vec3<f32>(0.9, 0.1, 0.05), clamp(k / 4.0, 0.0, 1.0)) * vec3<f32>(1.0, 1.0 - 0.12 * k, 0.6);

@@ -12,6 +12,7 @@ use globe::clipmap::{ClipmapSettings, TransformForm};
 use globe::look::{LookSettings, MipKind};
 use globe::plan::{LodMode, LodSettings};
 use globe::planar::geomip::GeomipSettings;
+use globe::planar::projgrid::ProjGridSettings;
 use globe::procedural::DetailSpec;
 use globe::progress::Progress;
 use globe::render::offscreen::{COLOR_FORMAT, OffscreenFrame};
@@ -252,8 +253,9 @@ impl LookArgs {
 struct LodArgs {
     /// LOD method near the ground: `clipmap` (the spherical clipmap alone), `geomip`
     /// (geomipmapping with geomorphing on the tangent plane around the viewer, the clipmap
-    /// beyond), `auto` (geomip below 1 000 m above the terrain, the clipmap alone above 1 500 m;
-    /// README "Close-up modes").
+    /// beyond), `projgrid` (the error-bounded projected grid over the whole view, ray casting
+    /// the cells whose error exceeds γ), `auto` (geomip below 1 000 m above the terrain, the
+    /// clipmap alone above 1 500 m; README "Close-up modes").
     #[arg(long, value_name = "MODE", default_value = "clipmap")]
     mode: ModeArg,
     /// Geomipmapping's level threshold τ: the largest projected error a patch may show, pixels.
@@ -270,12 +272,36 @@ struct LodArgs {
     /// Geomorphing of the patches (off: levels switch whole and pop).
     #[arg(long, value_name = "on|off", default_value = "on")]
     geomorph: Switch,
+    /// The projected grid's cells, COLSxROWS (e.g. 512x256).
+    #[arg(long, value_name = "COLSxROWS", default_value = "256x256", value_parser = parse_grid)]
+    grid: (u32, u32),
+    /// The projected grid's error threshold γ: cells whose screen-space error bound exceeds it
+    /// are ray cast, pixels (> 0).
+    #[arg(long, value_name = "PX", default_value_t = 1.0)]
+    gamma: f64,
+    /// The projected grid warped by importance (more cells where the mesh errs) or uniform.
+    #[arg(long, value_name = "on|off", default_value = "on")]
+    warp: Switch,
+    /// Ray casting of the projected grid's cells whose error exceeds γ.
+    #[arg(long = "ray-cast", value_name = "on|off", default_value = "on")]
+    ray_cast: Switch,
+}
+
+/// `--grid COLSxROWS`.
+fn parse_grid(s: &str) -> Result<(u32, u32), String> {
+    let bad = || format!("{s:?}: expected COLSxROWS, two whole numbers such as 512x256");
+    let (c, r) = s.split_once(['x', 'X', '×']).ok_or_else(bad)?;
+    Ok((
+        c.trim().parse().map_err(|_| bad())?,
+        r.trim().parse().map_err(|_| bad())?,
+    ))
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 enum ModeArg {
     Clipmap,
     Geomip,
+    Projgrid,
     Auto,
 }
 
@@ -288,13 +314,23 @@ impl LodArgs {
             geomorph: self.geomorph.on(),
         };
         geomip.validate()?;
+        let projgrid = ProjGridSettings {
+            cols: self.grid.0,
+            rows: self.grid.1,
+            gamma_px: self.gamma,
+            warp: self.warp.on(),
+            ray_cast: self.ray_cast.on(),
+        };
+        projgrid.validate()?;
         Ok(LodSettings {
             mode: match self.mode {
                 ModeArg::Clipmap => LodMode::Clipmap,
                 ModeArg::Geomip => LodMode::Geomip,
+                ModeArg::Projgrid => LodMode::Projgrid,
                 ModeArg::Auto => LodMode::Auto,
             },
             geomip,
+            projgrid,
         })
     }
 }

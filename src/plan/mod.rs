@@ -18,6 +18,7 @@
 
 pub mod clipmap;
 pub mod geomip;
+pub mod projgrid;
 
 use std::f64::consts::TAU;
 
@@ -29,6 +30,7 @@ use crate::terrain::Terrain;
 
 pub use clipmap::{ClipmapPlan, LevelFill};
 pub use geomip::{GeomipPlan, GeomipState};
+pub use projgrid::ProjGridPlan;
 
 /// Which LOD method draws the ground near the viewer (`--mode`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -38,6 +40,9 @@ pub enum LodMode {
     Clipmap,
     /// Geomipmapping with geomorphing near the viewer, the clipmap beyond.
     Geomip,
+    /// The error-bounded projected grid over the whole view (the clipmap's levels still fill
+    /// the textures it samples, but draw nothing).
+    Projgrid,
     /// Geomipmapping below [`AUTO_ON_BELOW_M`] above the terrain, the clipmap alone above
     /// [`AUTO_OFF_ABOVE_M`] (between the two the previous frame's choice holds).
     Auto,
@@ -54,6 +59,7 @@ impl LodMode {
         match self {
             LodMode::Clipmap => "clipmap",
             LodMode::Geomip => "geomip",
+            LodMode::Projgrid => "projgrid",
             LodMode::Auto => "auto",
         }
     }
@@ -63,7 +69,7 @@ impl LodMode {
     pub fn planar(self, height_above_terrain_m: f64, was_planar: bool) -> bool {
         match self {
             LodMode::Clipmap => false,
-            LodMode::Geomip => true,
+            LodMode::Geomip | LodMode::Projgrid => true,
             LodMode::Auto if was_planar => height_above_terrain_m <= AUTO_OFF_ABOVE_M,
             LodMode::Auto => height_above_terrain_m < AUTO_ON_BELOW_M,
         }
@@ -75,6 +81,7 @@ impl LodMode {
 pub struct LodSettings {
     pub mode: LodMode,
     pub geomip: crate::planar::geomip::GeomipSettings,
+    pub projgrid: crate::planar::projgrid::ProjGridSettings,
 }
 
 /// Direction to the sun in the viewer's local frame: 35° above the horizon in the south-east,

@@ -44,6 +44,15 @@ pub const PROJECTOR_CLEARANCE_M: f64 = 1e-3;
 pub const MIN_DISTANCE_M: f64 = 1e-6;
 /// Relative widening of a cell's bounding cap beyond its sampled boundary.
 const CAP_MARGIN: f64 = 0.02;
+/// The fragment stage's ray-march step, in pixels' footprint at the current distance: a
+/// ridge narrower than a step can be stepped over, rising at most (1 + slope)·step/2 pixels.
+pub const RAY_STEP_PX: f64 = 0.5;
+/// A projected-grid fragment's tag (shaders/planar.wgsl): this bit or'ed with its cell.
+pub const GRID_TAG: u32 = 0x8000_0000;
+/// The fragment stage's ray march: steps at most (each at least 1/this of the interval)…
+pub const RAY_STEPS: u32 = 96;
+/// …then bisection steps on the crossing (2⁻¹² of a step: well under a pixel's footprint).
+pub const RAY_BISECTIONS: u32 = 12;
 /// Bisection steps: 2⁻⁶⁴ of any bracket is below f64 resolution.
 const BISECTION_STEPS: usize = 64;
 
@@ -70,6 +79,10 @@ pub struct ProjGridSettings {
     pub rows: u32,
     /// Error threshold γ in pixels: cells with ρ > γ are ray cast (eq. 4).
     pub gamma_px: f64,
+    /// Non-uniform grid: warped by importance (`grid_warp`, `--warp`).
+    pub warp: bool,
+    /// Cells with ρ > γ ray cast in the fragment stage (`--ray-cast`).
+    pub ray_cast: bool,
 }
 
 impl Default for ProjGridSettings {
@@ -78,6 +91,8 @@ impl Default for ProjGridSettings {
             cols: 256,
             rows: 256,
             gamma_px: 1.0,
+            warp: true,
+            ray_cast: true,
         }
     }
 }
@@ -456,8 +471,9 @@ impl Projector {
         self.point_at(uv, self.theta_of_v(uv.y))
     }
 
-    /// The vertex at column u and central angle θ̃ (row v's θ̃ already solved).
-    fn point_at(&self, uv: DVec2, theta_rad: f64) -> GridPoint {
+    /// The vertex at column u and central angle θ̃ (row v's θ̃ already solved, or looked up:
+    /// [`ThetaTable`]).
+    pub fn point_at(&self, uv: DVec2, theta_rad: f64) -> GridPoint {
         let [p0, p1] = self.psi_rad;
         let psi = p0 + uv.x.clamp(0.0, 1.0) * (p1 - p0);
         let h = self.forward_h * psi.cos() + self.right_h * psi.sin();
@@ -536,6 +552,40 @@ impl Projector {
             rows: settings.rows,
             points: uv.iter().map(|&p| self.point(p)).collect(),
         })
+    }
+}
+
+/// θ̃(v) tabulated at [`ThetaTable::SAMPLES`] + 1 rows and interpolated linearly: a frame's
+/// grid and error buffer look θ̃ up instead of solving it by bisection per point (the table's
+/// error, ~1e-8 of the range, moves vertices along the ground, never off it).
+#[derive(Clone, Debug)]
+pub struct ThetaTable {
+    theta_rad: Vec<f64>,
+}
+
+impl ThetaTable {
+    pub const SAMPLES: usize = 4096;
+
+    pub fn new(projector: &Projector) -> Self {
+        let n = Self::SAMPLES;
+        Self {
+            theta_rad: (0..=n)
+                .map(|k| projector.theta_of_v(k as f64 / n as f64))
+                .collect(),
+        }
+    }
+
+    pub fn theta_of_v(&self, v: f64) -> f64 {
+        let n = Self::SAMPLES;
+        let x = v.clamp(0.0, 1.0) * n as f64;
+        let k = (x.floor() as usize).min(n - 1);
+        let f = x - k as f64;
+        self.theta_rad[k] + f * (self.theta_rad[k + 1] - self.theta_rad[k])
+    }
+
+    /// The grid point at (u, v), θ̃ from the table.
+    pub fn point(&self, projector: &Projector, uv: DVec2) -> GridPoint {
+        projector.point_at(uv, self.theta_of_v(uv.y))
     }
 }
 
@@ -656,6 +706,21 @@ impl ErrorBuffer {
         height: &dyn Fn(DVec3) -> f64,
         bounds: &dyn Fn(DVec3, f64) -> (f64, f64),
     ) -> Self {
+        let point = |uv| projector.point(uv);
+        Self::compute_with(projector, grid, view, gamma_px, height, bounds, &point)
+    }
+
+    /// [`ErrorBuffer::compute`] with the grid's map from (u, v) to a point given (a frame's
+    /// plan passes [`ThetaTable::point`], the grid's own).
+    pub fn compute_with(
+        projector: &Projector,
+        grid: &ProjectedGrid,
+        view: &RenderView,
+        gamma_px: f64,
+        height: &dyn Fn(DVec3) -> f64,
+        bounds: &dyn Fn(DVec3, f64) -> (f64, f64),
+        point: &dyn Fn(DVec2) -> GridPoint,
+    ) -> Self {
         let lambda = view.pixels_per_radian();
         let heights: Vec<f64> = grid.points.iter().map(|p| height(p.unit)).collect();
         let e = view.eye_m;
@@ -666,13 +731,13 @@ impl ErrorBuffer {
                 let k = grid.cell_vertices(i, j);
                 let corners = k.map(|k| grid.points[k].uv);
                 let mid = 0.25 * corners.iter().sum::<DVec2>();
-                let centre = projector.point(mid).unit;
+                let centre = point(mid).unit;
                 // Boundary: corners and three points along each edge (00→10→11→01).
                 let ring = [corners[0], corners[1], corners[3], corners[2], corners[0]];
                 let (mut radius_rad, mut theta_min) = (0.0f64, PI);
                 for w in ring.windows(2) {
                     for s in 0..4 {
-                        let q = projector.point(w[0].lerp(w[1], f64::from(s) / 4.0)).unit;
+                        let q = point(w[0].lerp(w[1], f64::from(s) / 4.0)).unit;
                         radius_rad = radius_rad.max(angle(q, centre));
                         theta_min = theta_min.min(angle(q, projector.nadir));
                     }
@@ -816,6 +881,8 @@ mod tests {
         cols: 48,
         rows: 32,
         gamma_px: 1.0,
+        warp: false,
+        ray_cast: true,
     };
 
     fn camera(lat_deg: f64, altitude_m: f64, pitch_deg: f64) -> Camera {
@@ -975,7 +1042,8 @@ mod tests {
             ProjGridSettings {
                 cols: 1,
                 rows: 1,
-                gamma_px: 0.01
+                gamma_px: 0.01,
+                ..GRID
             }
             .validate()
             .is_ok()

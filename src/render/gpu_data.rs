@@ -505,6 +505,10 @@ pub struct PlanarUniforms {
     pub patch_cells: u32,
     pub skirt_m: f32,
     pub drawing: u32,
+    pub grid_cols: u32,
+    pub grid_rows: u32,
+    pub ray_step_px: f32,
+    pub px_per_rad: f32,
 }
 
 /// `PatchGpu` in `shaders/planar.wgsl`: one geomipmapping patch of the frame.
@@ -545,6 +549,22 @@ impl PlanarUniforms {
             patch_cells,
             skirt_m: skirt_m as f32,
             drawing: 1,
+            ..Self::zeroed()
+        }
+    }
+}
+
+impl PlanarUniforms {
+    /// The projected grid's: its size, the ray march's step and λ; the clipmap cuts nothing
+    /// (it draws nothing beside the grid).
+    pub fn from_grid(view: &ViewPlan, cols: u32, rows: u32) -> Self {
+        Self {
+            grid_cols: cols,
+            grid_rows: rows,
+            ray_step_px: crate::planar::projgrid::RAY_STEP_PX as f32,
+            px_per_rad: crate::measure::metric::pixels_per_radian(view.height_px, view.fov_y_rad)
+                as f32,
+            ..Self::zeroed()
         }
     }
 }
@@ -565,7 +585,8 @@ impl PatchGpu {
 }
 
 gpu_struct!(PlanarUniforms as "PlanarUniforms" {
-    anchor, east, north, cut, spacing_m, patch_cells, skirt_m, drawing,
+    anchor, east, north, cut, spacing_m, patch_cells, skirt_m, drawing, grid_cols, grid_rows,
+    ray_step_px, px_per_rad,
 });
 gpu_struct!(PatchGpu as "PatchGpu" { corner, level, centre_dphi, sides });
 gpu_struct!(DetailOctaveParams as "DetailOctave" { m0, m1, m2, cell });

@@ -7,7 +7,8 @@ use std::ops::Range;
 
 use wgpu::util::DeviceExt;
 
-use crate::plan::{GeomipPlan, ViewPlan};
+use crate::plan::projgrid::grid_indices;
+use crate::plan::{GeomipPlan, ProjGridPlan, ViewPlan};
 use crate::planar::geomip::{PatchMesh, SOUTH, WEST};
 
 use super::gpu_data::{PatchGpu, PlanarUniforms};
@@ -27,6 +28,21 @@ pub struct PlanarDraw {
     pub waiting: usize,
     /// Finest lattice spacing, metres.
     pub spacing_m: f64,
+    /// The projected grid's (drawn instead of the clipmap, not beside it), or None for
+    /// geomipmapping.
+    pub grid: Option<GridDraw>,
+}
+
+/// What the projected grid draws this frame.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct GridDraw {
+    pub indices: Range<u32>,
+    /// Cells whose ρ exceeds γ, and whether their fragments ray cast.
+    pub cells_above_gamma: usize,
+    pub ray_cast: bool,
+    /// The error buffer's largest and mean ρ (the a-priori bound), pixels.
+    pub max_rho_px: f64,
+    pub mean_rho_px: f64,
 }
 
 /// The planar methods' buffers and their bind group (group 1 of every terrain pipeline: the
@@ -36,8 +52,48 @@ pub struct PlanarResources {
     pub patches: wgpu::Buffer,
     mesh: PatchMesh,
     index_buffer: wgpu::Buffer,
+    grid: GridBuffers,
     layout: wgpu::BindGroupLayout,
     bind_group: wgpu::BindGroup,
+}
+
+/// The projected grid's vertices, cells and triangle list, sized for `cols` × `rows`.
+struct GridBuffers {
+    cols: u32,
+    rows: u32,
+    vertices: wgpu::Buffer,
+    cells: wgpu::Buffer,
+    indices: wgpu::Buffer,
+}
+
+impl GridBuffers {
+    fn new(device: &wgpu::Device, cols: u32, rows: u32) -> Self {
+        let vertices = ((cols as u64 + 1) * (rows as u64 + 1)).max(1);
+        let cells = (cols as u64 * rows as u64).max(1);
+        let storage = |label, size| {
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size,
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            })
+        };
+        let mut idx = grid_indices(cols, rows);
+        if idx.is_empty() {
+            idx.push(0);
+        }
+        Self {
+            cols,
+            rows,
+            vertices: storage("projected grid vertices", 16 * vertices),
+            cells: storage("projected grid cells", 16 * cells),
+            indices: device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("projected grid indices"),
+                contents: bytemuck::cast_slice(&idx),
+                usage: wgpu::BufferUsages::INDEX | wgpu::BufferUsages::STORAGE,
+            }),
+        }
+    }
 }
 
 impl PlanarResources {
@@ -54,6 +110,8 @@ impl PlanarResources {
             mapped_at_creation: false,
         });
         let (mesh, index_buffer) = Self::mesh(device, patch_size);
+        // Sized when the projected grid is first used (`set_grid_size`).
+        let grid = GridBuffers::new(device, 0, 0);
         let entry = |binding, ty| wgpu::BindGroupLayoutEntry {
             binding,
             visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
@@ -71,14 +129,18 @@ impl PlanarResources {
                 entry(0, wgpu::BufferBindingType::Uniform),
                 entry(1, storage),
                 entry(2, storage),
+                entry(3, storage),
+                entry(4, storage),
+                entry(5, storage),
             ],
         });
-        let bind_group = Self::bind(device, &layout, &uniforms, &patches, &index_buffer);
+        let bind_group = Self::bind(device, &layout, &uniforms, &patches, &index_buffer, &grid);
         Self {
             uniforms,
             patches,
             mesh,
             index_buffer,
+            grid,
             layout,
             bind_group,
         }
@@ -90,6 +152,7 @@ impl PlanarResources {
         uniforms: &wgpu::Buffer,
         patches: &wgpu::Buffer,
         indices: &wgpu::Buffer,
+        grid: &GridBuffers,
     ) -> wgpu::BindGroup {
         device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("planar bind group"),
@@ -106,6 +169,18 @@ impl PlanarResources {
                 wgpu::BindGroupEntry {
                     binding: 2,
                     resource: indices.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 3,
+                    resource: grid.vertices.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 4,
+                    resource: grid.cells.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 5,
+                    resource: grid.indices.as_entire_binding(),
                 },
             ],
         })
@@ -134,13 +209,60 @@ impl PlanarResources {
     pub fn set_patch_size(&mut self, device: &wgpu::Device, patch_size: u32) {
         if self.mesh.size != patch_size {
             (self.mesh, self.index_buffer) = Self::mesh(device, patch_size);
-            self.bind_group = Self::bind(
-                device,
-                &self.layout,
-                &self.uniforms,
-                &self.patches,
-                &self.index_buffer,
-            );
+            self.rebind(device);
+        }
+    }
+
+    /// Sizes the projected grid's buffers for `cols` × `rows` cells.
+    pub fn set_grid_size(&mut self, device: &wgpu::Device, cols: u32, rows: u32) {
+        if (self.grid.cols, self.grid.rows) != (cols, rows) {
+            self.grid = GridBuffers::new(device, cols, rows);
+            self.rebind(device);
+        }
+    }
+
+    fn rebind(&mut self, device: &wgpu::Device) {
+        self.bind_group = Self::bind(
+            device,
+            &self.layout,
+            &self.uniforms,
+            &self.patches,
+            &self.index_buffer,
+            &self.grid,
+        );
+    }
+
+    pub fn grid_index_buffer(&self) -> &wgpu::Buffer {
+        &self.grid.indices
+    }
+
+    /// Writes the projected grid's plan (vertices, error buffer, uniforms) and its draw.
+    pub fn write_grid(
+        &self,
+        queue: &wgpu::Queue,
+        view: &ViewPlan,
+        plan: &ProjGridPlan,
+        ray_cast: bool,
+    ) -> PlanarDraw {
+        let fits = (plan.cols, plan.rows) == (self.grid.cols, self.grid.rows);
+        let drawn = plan.sees_terrain && fits;
+        if drawn {
+            queue.write_buffer(&self.grid.vertices, 0, bytemuck::cast_slice(&plan.vertices));
+            queue.write_buffer(&self.grid.cells, 0, bytemuck::cast_slice(&plan.cells));
+        }
+        let uniforms = PlanarUniforms::from_grid(view, plan.cols, plan.rows);
+        queue.write_buffer(&self.uniforms, 0, bytemuck::bytes_of(&uniforms));
+        let cells = if drawn { plan.cols * plan.rows } else { 0 };
+        PlanarDraw {
+            triangles: 2 * u64::from(cells),
+            grid: Some(GridDraw {
+                indices: 0..6 * cells,
+                cells_above_gamma: plan.cells_above_gamma,
+                ray_cast,
+                max_rho_px: plan.max_rho_px,
+                mean_rho_px: plan.mean_rho_px,
+            }),
+            ..Default::default()
         }
     }
 

@@ -131,6 +131,8 @@ pub struct TerrainRenderer {
     /// The clipmap variants that cut out the planar square, and the geomipmapping pipeline
     /// (built on first use).
     planar_pipelines: Option<PlanarPipelines>,
+    /// The projected grid's (built on first use).
+    grid_pipelines: Option<GridPipelines>,
     /// The wireframe overlay's (built when it is first switched on).
     wire_pipelines: Option<WirePipelines>,
 }
@@ -141,12 +143,21 @@ struct PlanarPipelines {
     geomip: wgpu::RenderPipeline,
 }
 
+/// The projected grid's pipelines: the mesh as placed, and its fragments ray cast where the
+/// error buffer's ρ exceeds γ.
+struct GridPipelines {
+    plain: wgpu::RenderPipeline,
+    ray_cast: wgpu::RenderPipeline,
+}
+
 /// The wireframe overlay's pipelines: the same shading, drawn without an index buffer (the
 /// vertex stages read the indices and give each corner its barycentric coordinate).
 struct WirePipelines {
     clipmap: [wgpu::RenderPipeline; 3],
     clipmap_cut: [wgpu::RenderPipeline; 3],
     geomip: wgpu::RenderPipeline,
+    /// The projected grid's (built when first needed).
+    grid: Option<wgpu::RenderPipeline>,
 }
 
 impl TerrainRenderer {
@@ -500,6 +511,7 @@ impl TerrainRenderer {
             geomip_state: GeomipState::default(),
             planar,
             planar_pipelines: None,
+            grid_pipelines: None,
             wire_pipelines: None,
         })
     }
@@ -512,6 +524,27 @@ impl TerrainRenderer {
                 device,
                 self.look,
                 self.lod.geomip.geomorph,
+            ));
+        }
+        self.build_grid_pipelines(device);
+    }
+
+    /// The projected grid's pipelines (and its wireframe's), when its mode is on.
+    fn build_grid_pipelines(&mut self, device: &wgpu::Device) {
+        if self.lod.mode != LodMode::Projgrid {
+            return;
+        }
+        if self.grid_pipelines.is_none() {
+            self.grid_pipelines = Some(self.pipeline_parts.build_grid(device, self.look));
+        }
+        if let Some(w) = &mut self.wire_pipelines
+            && w.grid.is_none()
+        {
+            w.grid = Some(self.pipeline_parts.grid_pipeline(
+                device,
+                self.look,
+                "vs_projgrid_wire",
+                "fs_main",
             ));
         }
     }
@@ -532,14 +565,19 @@ impl TerrainRenderer {
                 ));
             }
         }
-        if lod.mode != LodMode::Clipmap && self.planar_pipelines.is_none() {
+        if matches!(lod.mode, LodMode::Geomip | LodMode::Auto) && self.planar_pipelines.is_none() {
             self.planar_pipelines = Some(self.pipeline_parts.build_planar(
                 device,
                 self.look,
                 lod.geomip.geomorph,
             ));
         }
+        if lod.mode == LodMode::Projgrid {
+            self.planar
+                .set_grid_size(device, lod.projgrid.cols, lod.projgrid.rows);
+        }
         self.lod = lod;
+        self.build_grid_pipelines(device);
     }
 
     /// The LOD methods' settings.
@@ -849,13 +887,20 @@ impl TerrainRenderer {
             normal_timestamps,
         );
         // A planar method near the viewer (its heights come from the levels just filled).
+        let grid_on = self.lod.mode == LodMode::Projgrid && self.grid_pipelines.is_some();
         let planar_on = self
             .lod
             .mode
             .planar(view.height_above_terrain_m, self.auto_planar)
             && self.planar_pipelines.is_some();
         self.auto_planar = planar_on;
-        let planar = if planar_on {
+        let planar = if grid_on {
+            let plan = crate::plan::projgrid::plan(&view, &self.lod.projgrid, self.query());
+            Some(
+                self.planar
+                    .write_grid(queue, &view, &plan, self.lod.projgrid.ray_cast),
+            )
+        } else if planar_on {
             let mut state = std::mem::take(&mut self.geomip_state);
             let plan = state.plan(&view, &self.lod.geomip, self.query());
             self.geomip_state = state;
@@ -877,6 +922,11 @@ impl TerrainRenderer {
             self.query(),
             self.draw_all_sectors,
         );
+        if grid_on {
+            // The grid covers the whole view: the levels fill the textures it samples but
+            // draw nothing.
+            clipmap.draw = Default::default();
+        }
 
         let levels =
             gpu_data::level_uniforms(&view, &self.grids, &clipmap.densities, detail, blend);
@@ -944,6 +994,9 @@ impl TerrainRenderer {
                     self.lod.geomip.geomorph,
                 ));
             }
+            self.grid_pipelines = None;
+            self.look = look;
+            self.build_grid_pipelines(device);
         }
         self.look = look;
     }
@@ -1003,15 +1056,45 @@ impl TerrainRenderer {
         pass.set_vertex_buffer(0, self.vertex_buffer.slice(..));
         pass.set_index_buffer(self.index_buffer.slice(..), wgpu::IndexFormat::Uint32);
         let mut current = None;
+        let wire = self
+            .wire_pipelines
+            .as_ref()
+            .filter(|_| self.overlays.wireframe && !self.use_passthrough);
+        // The projected grid draws alone.
+        if let Some(grid) = info.planar.as_ref().and_then(|p| p.grid.as_ref()) {
+            if let Some(pipelines) = &self.grid_pipelines
+                && !grid.indices.is_empty()
+                && !self.use_passthrough
+            {
+                match wire.and_then(|w| w.grid.as_ref()) {
+                    Some(w) => {
+                        pass.set_pipeline(w);
+                        pass.draw(grid.indices.clone(), 0..1);
+                    }
+                    None => {
+                        pass.set_pipeline(if grid.ray_cast {
+                            &pipelines.ray_cast
+                        } else {
+                            &pipelines.plain
+                        });
+                        pass.set_index_buffer(
+                            self.planar.grid_index_buffer().slice(..),
+                            wgpu::IndexFormat::Uint32,
+                        );
+                        pass.draw_indexed(grid.indices.clone(), 0, 0..1);
+                    }
+                }
+            }
+            if self.look.sky && !self.use_passthrough {
+                self.look_resources.draw_sky(pass);
+            }
+            return;
+        }
         // With a planar method the clipmap leaves its square out.
         let planar = match (&info.planar, &self.planar_pipelines) {
             (Some(draw), Some(pipelines)) if !self.use_passthrough => Some((draw, pipelines)),
             _ => None,
         };
-        let wire = self
-            .wire_pipelines
-            .as_ref()
-            .filter(|_| self.overlays.wireframe && !self.use_passthrough);
         let uncut = match wire {
             Some(w) => &w.clipmap,
             None => &self.pipelines,
@@ -1214,6 +1297,36 @@ impl PipelineParts {
         )
     }
 
+    /// A projected-grid pipeline: vertex entry `vs` (`vs_projgrid`, `vs_projgrid_wire`),
+    /// fragment `fs` (`fs_main`, or `fs_projgrid_ray`, which ray casts and writes depth).
+    /// No culling: the grid's winding follows its parameters, not the screen.
+    fn grid_pipeline(
+        &self,
+        device: &wgpu::Device,
+        look: LookSettings,
+        vs: &str,
+        fs: &str,
+    ) -> wgpu::RenderPipeline {
+        let mut c = self.constants(look, false, true, false);
+        c.push(("GRID", 1.0));
+        self.pipeline(
+            device,
+            &format!("projected grid {vs} {fs}"),
+            vs,
+            fs,
+            &c,
+            false,
+            None,
+        )
+    }
+
+    fn build_grid(&self, device: &wgpu::Device, look: LookSettings) -> GridPipelines {
+        GridPipelines {
+            plain: self.grid_pipeline(device, look, "vs_projgrid", "fs_main"),
+            ray_cast: self.grid_pipeline(device, look, "vs_projgrid", "fs_projgrid_ray"),
+        }
+    }
+
     /// The clipmap's variants cutting out a planar square, and geomipmapping's pipeline.
     fn build_planar(
         &self,
@@ -1238,6 +1351,7 @@ impl PipelineParts {
             clipmap: self.clipmap_variants(device, look, "vs_main_wire", false),
             clipmap_cut: self.clipmap_variants(device, look, "vs_main_wire", true),
             geomip: self.geomip_pipeline(device, look, geomorph, "vs_geomip_wire"),
+            grid: None,
         }
     }
 
