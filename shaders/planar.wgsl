@@ -354,7 +354,8 @@ fn shell_interval(dir: vec3<f32>, lo: f32, hi: f32) -> vec2<f32> {
 
 // The first crossing of the terrain along `dir` within the shell of the cell's bounds
 // (projgrid::ray_cast's twin): footprint-sized steps of planar.ray_step_px pixels (at least
-// 1/RAY_STEPS of the interval), then bisection. w = 0: no hit.
+// 1/RAY_STEPS of the interval), then bisection. y = 1: a hit at x; 0: no hit; 2: not decided
+// within RAY_STEPS.
 fn ray_cast(dir: vec3<f32>, lo: f32, hi: f32) -> vec2<f32> {
     let span = shell_interval(dir, lo, hi);
     if span.x > span.y {
@@ -381,10 +382,11 @@ fn ray_cast(dir: vec3<f32>, lo: f32, hi: f32) -> vec2<f32> {
         }
         a = z;
         if a >= span.y {
-            break;
+            return vec2<f32>(0.0);
         }
     }
-    return vec2<f32>(0.0);
+    // Steps ran out before the interval did (a long grazing ray): keep the mesh's fragment.
+    return vec2<f32>(0.0, 2.0);
 }
 
 struct RayCastOut {
@@ -405,15 +407,17 @@ fn fs_projgrid_ray(in: VertexOut) -> RayCastOut {
         if hit.y == 0.0 {
             discard;
         }
-        let rel = dir * hit.x;
-        let pt = rel_point(rel);
-        v.rel = rel;
-        v.p_tilde = pt.p;
-        v.map_pos = pt.at.d;
-        v.level = pt.level;
-        v.coarse_blend = pt.at.blend;
-        let clip = frame.clip_from_view * vec4<f32>(rel, 1.0);
-        depth = clip.z / clip.w;
+        if hit.y == 1.0 {
+            let rel = dir * hit.x;
+            let pt = rel_point(rel);
+            v.rel = rel;
+            v.p_tilde = pt.p;
+            v.map_pos = pt.at.d;
+            v.level = pt.level;
+            v.coarse_blend = pt.at.blend;
+            let clip = frame.clip_from_view * vec4<f32>(rel, 1.0);
+            depth = clip.z / clip.w;
+        }
     }
     var out: RayCastOut;
     out.colour = shade(v);

@@ -890,6 +890,7 @@ mod view_tests {
             every: 1,
             look: crate::look::LookSettings::default(),
             lod: Default::default(),
+            projgrid_tables: false,
         };
         let names: Vec<String> = views(&o).unwrap().into_iter().map(|v| v.0).collect();
         assert_eq!(names, ["space", "ground", scenes::CAMERA_VIEW_NAME]);

@@ -99,6 +99,7 @@ fn report_covers_every_setting_and_writes_its_files() {
         every: 1,
         look: globe::look::LookSettings::default(),
         lod: Default::default(),
+        projgrid_tables: false,
     };
     let rows = report::run(ctx, &terrain, &options, |step| eprintln!("{step:?}")).unwrap();
     let grid = report::settings_grid(&options.base);

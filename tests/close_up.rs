@@ -11,6 +11,7 @@ use globe::clipmap::ClipmapSettings;
 use globe::geo::camera::Camera;
 use globe::measure::{DEFAULT_THRESHOLD_PX, PixelSet, RayCaster, measure_frame};
 use globe::plan::{LodMode, LodSettings};
+use globe::planar::projgrid::ProjGridSettings;
 use globe::procedural::DetailParams;
 use globe::render::offscreen::COLOR_FORMAT;
 use globe::render::{GpuContext, TerrainRenderer};
@@ -18,6 +19,16 @@ use globe::scenes::Scene;
 use globe::terrain::Terrain;
 
 fn renderer(ctx: &GpuContext, mode: LodMode) -> TerrainRenderer {
+    renderer_with(
+        ctx,
+        LodSettings {
+            mode,
+            ..Default::default()
+        },
+    )
+}
+
+fn renderer_with(ctx: &GpuContext, lod: LodSettings) -> TerrainRenderer {
     let terrain = Terrain::embedded_earth()
         .expect("embedded Earth")
         .with_detail(Some(DetailParams::default()))
@@ -29,13 +40,7 @@ fn renderer(ctx: &GpuContext, mode: LodMode) -> TerrainRenderer {
         COLOR_FORMAT,
     )
     .unwrap();
-    r.set_lod(
-        &ctx.device,
-        LodSettings {
-            mode,
-            ..Default::default()
-        },
-    );
+    r.set_lod(&ctx.device, lod);
     r
 }
 
@@ -115,6 +120,90 @@ fn geomipmapping_meets_the_error_bar_without_gaps() {
     }
 }
 
+/// The projected grid (error-bounded-projective-grid.md): its mesh alone errs where its cells'
+/// a-priori bound exceeds γ; with those cells ray cast the frame's worst pixel is within γ
+/// (1 px), and it covers what the reference sees as the clipmap does.
+#[test]
+fn projected_grid_ray_cast_bounds_the_error_by_gamma() {
+    let Some((ctx, _guard)) = common::gpu() else {
+        return;
+    };
+    let (w, h) = (240, 135);
+    let grid = ProjGridSettings {
+        cols: 96,
+        rows: 64,
+        ..Default::default()
+    };
+    let lod = |ray_cast| LodSettings {
+        mode: LodMode::Projgrid,
+        projgrid: ProjGridSettings { ray_cast, ..grid },
+        ..Default::default()
+    };
+    let mut clip = renderer(ctx, LodMode::Clipmap);
+    let mut mesh = renderer_with(ctx, lod(false));
+    let mut cast = renderer_with(ctx, lod(true));
+    // One view (each renderer compiles its pipelines: minutes on a CPU rasteriser).
+    let (name, camera) = cameras(&cast.terrain)[1];
+    {
+        let reference = RayCaster::new(&cast.terrain, &camera, w, h).cast(&PixelSet::All);
+        let mut seen = Vec::new();
+        for (mode, r) in [
+            ("clipmap", &mut clip),
+            ("grid", &mut mesh),
+            ("grid+ray", &mut cast),
+        ] {
+            let frame = render(ctx, r, &camera, w, h);
+            let stats = measure_frame(
+                &frame,
+                &camera,
+                &r.terrain,
+                Some(&reference),
+                DEFAULT_THRESHOLD_PX,
+            )
+            .unwrap();
+            let mismatched = stats.coverage.unwrap().mismatched();
+            eprintln!(
+                "{name} {mode}: ρ mean {:.3} p99 {:.3} max {:.3} px, error px {:.2} %; coverage mismatches {mismatched}; {:?}",
+                stats.mean_px,
+                stats.p99_px,
+                stats.max_px,
+                100.0 * stats.error_pixel_share,
+                frame.info.planar.as_ref().and_then(|p| p.grid.clone())
+            );
+            assert!(
+                stats.pixels_measured > 10_000,
+                "{name} {mode}: terrain in view"
+            );
+            if mode != "clipmap" {
+                let g = frame.info.planar.as_ref().and_then(|p| p.grid.as_ref());
+                assert!(
+                    g.is_some_and(|g| !g.indices.is_empty()),
+                    "{name}: the grid drew"
+                );
+                assert_eq!(
+                    frame.info.draw.ranges.len(),
+                    0,
+                    "{name}: the clipmap drew nothing"
+                );
+            }
+            seen.push((stats, mismatched));
+        }
+        let (mesh_stats, cast_stats) = (seen[1].0, seen[2].0);
+        assert!(
+            cast_stats.max_px <= 1.0 && cast_stats.max_px <= mesh_stats.max_px,
+            "{name}: ray cast max ρ {} px (mesh alone {} px)",
+            cast_stats.max_px,
+            mesh_stats.max_px
+        );
+        assert!(
+            seen[2].1 <= seen[0].1 + (w * h / 200) as usize,
+            "{name}: coverage mismatches {} (clipmap {})",
+            seen[2].1,
+            seen[0].1
+        );
+    }
+}
+
 /// The wireframe overlay darkens many terrain pixels (the edges) in both modes, leaves the sky
 /// and the depth as they were.
 #[test]
@@ -123,7 +212,7 @@ fn wireframe_overlay_draws_every_method_s_edges() {
         return;
     };
     let (w, h) = (192, 108);
-    for mode in [LodMode::Clipmap, LodMode::Geomip] {
+    for mode in [LodMode::Clipmap, LodMode::Geomip, LodMode::Projgrid] {
         let mut r = renderer(ctx, mode);
         let camera = cameras(&r.terrain)[1].1;
         let plain = render(ctx, &mut r, &camera, w, h);

@@ -74,6 +74,12 @@ struct ReportArgs {
     /// procedural detail costs minutes per full 1080p frame on two cores).
     #[arg(long, value_name = "N", default_value_t = 1)]
     every: u32,
+    /// Run the error-bounded projected grid's Tables 1–2 instead of the settings grid: grids
+    /// 1024x512, 512x256, 600x600, 300x900 and 400x1900, uniform and warped, without and with
+    /// ray casting, beside the clipmap (the paper used --width 1024 --height 800); also writes
+    /// projgrid_tables.md.
+    #[arg(long = "projgrid-tables")]
+    projgrid_tables: bool,
     /// The base settings every row varies one parameter of.
     #[command(flatten)]
     mesh: MeshArgs,
@@ -678,11 +684,24 @@ fn render(args: &RenderArgs) -> anyhow::Result<ExitCode> {
         frame.info.draw.sectors_culled,
         frame.info.texels_filled
     );
-    if let Some(p) = &frame.info.planar {
-        eprintln!(
+    match frame.info.planar.as_ref().map(|p| (p, &p.grid)) {
+        Some((p, Some(g))) => eprintln!(
+            "projected grid: {} triangles; {} cells with ρ > γ ({}); error buffer mean {:.3} px, max {:.3} px",
+            p.triangles,
+            g.cells_above_gamma,
+            if g.ray_cast {
+                "ray cast"
+            } else {
+                "not ray cast"
+            },
+            g.mean_rho_px,
+            g.max_rho_px
+        ),
+        Some((p, None)) => eprintln!(
             "geomipmapping: {} patches in view ({} triangles), finest spacing {} m",
             p.patches, p.triangles, p.spacing_m
-        );
+        ),
+        None => {}
     }
     eprintln!(
         "wrote {} ({}×{}) in {:.2} s",
@@ -957,6 +976,7 @@ fn report(args: &ReportArgs) -> anyhow::Result<ExitCode> {
         look: args.look.settings(),
         lod: args.lod.settings()?,
         every: args.every,
+        projgrid_tables: args.projgrid_tables,
     };
     let started = Instant::now();
     let mut progress = None;
