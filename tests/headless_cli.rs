@@ -81,6 +81,10 @@ fn bad_close_up_settings_name_their_flag() {
         ("--patch-size", "65", "2^n + 1"),
         ("--patches", "0", "even"),
         ("--patches", "7", "even"),
+        ("--grid", "0x256", "at least 1 column"),
+        ("--grid", "4096x4096", "at most"),
+        ("--grid", "abc", "COLSxROWS"),
+        ("--gamma", "0", "must be > 0"),
     ] {
         let run = Command::new(env!("CARGO_BIN_EXE_globe"))
             .args([

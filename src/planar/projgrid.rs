@@ -47,6 +47,9 @@ const CAP_MARGIN: f64 = 0.02;
 /// The fragment stage's ray-march step, in pixels' footprint at the current distance: a
 /// ridge narrower than a step can be stepped over, rising at most (1 + slope)·step/2 pixels.
 pub const RAY_STEP_PX: f64 = 0.5;
+/// Cells a projected grid may have (4 Mi: its cell index fits beside [`GRID_TAG`], its
+/// buffers stay under 100 MB).
+pub const MAX_GRID_CELLS: u64 = 1 << 22;
 /// A projected-grid fragment's tag (shaders/planar.wgsl): this bit or'ed with its cell.
 pub const GRID_TAG: u32 = 0x8000_0000;
 /// The fragment stage's ray march: steps at most (each at least 1/this of the interval)…
@@ -61,6 +64,8 @@ const BISECTION_STEPS: usize = 64;
 pub enum ProjGridError {
     #[error("--grid {cols}x{rows}: the projected grid needs at least 1 column and 1 row")]
     Grid { cols: u32, rows: u32 },
+    #[error("--grid {cols}x{rows}: the projected grid has at most {max} cells", max = MAX_GRID_CELLS)]
+    TooLarge { cols: u32, rows: u32 },
     #[error("--gamma {0}: the error threshold γ is a screen-space error in pixels and must be > 0")]
     Gamma(f64),
     #[error("warped grid has {got} vertices; a {cols}x{rows} grid has {expected}")]
@@ -101,6 +106,12 @@ impl ProjGridSettings {
     pub fn validate(&self) -> Result<(), ProjGridError> {
         if self.cols == 0 || self.rows == 0 {
             return Err(ProjGridError::Grid {
+                cols: self.cols,
+                rows: self.rows,
+            });
+        }
+        if u64::from(self.cols) * u64::from(self.rows) > MAX_GRID_CELLS {
+            return Err(ProjGridError::TooLarge {
                 cols: self.cols,
                 rows: self.rows,
             });

@@ -313,6 +313,11 @@ impl Panel {
                     "geomipmapping with geomorphing around the viewer",
                 ),
                 (
+                    LodMode::Projgrid,
+                    "projgrid",
+                    "the error-bounded projected grid, ray casting cells whose error exceeds γ",
+                ),
+                (
                     LodMode::Auto,
                     "auto",
                     "geomipmapping below 1 000 m above the terrain",
