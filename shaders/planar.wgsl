@@ -354,8 +354,8 @@ fn shell_interval(dir: vec3<f32>, lo: f32, hi: f32) -> vec2<f32> {
 
 // The first crossing of the terrain along `dir` within the shell of the cell's bounds
 // (projgrid::ray_cast's twin): footprint-sized steps of planar.ray_step_px pixels (at least
-// 1/RAY_STEPS of the interval), then bisection. y = 1: a hit at x; 0: no hit; 2: not decided
-// within RAY_STEPS.
+// 1/RAY_STEPS of the interval), then bisection. y = 1: a hit at x; 0: no hit (footprint
+// steps all along); 2: not decided (steps ran out, or a coarse march missed).
 fn ray_cast(dir: vec3<f32>, lo: f32, hi: f32) -> vec2<f32> {
     let span = shell_interval(dir, lo, hi);
     if span.x > span.y {
@@ -367,8 +367,13 @@ fn ray_cast(dir: vec3<f32>, lo: f32, hi: f32) -> vec2<f32> {
     }
     let per_m = planar.ray_step_px / planar.px_per_rad;
     let min_step = (span.y - span.x) / f32(RAY_STEPS);
+    // Some step was longer than the footprint's: a thin ridge may have been stepped over, so
+    // a miss is not trusted.
+    var coarse = false;
     for (var k = 0u; k < RAY_STEPS; k++) {
-        var z = min(a + max(per_m * max(a, 1e-3), min_step), span.y);
+        let fine = per_m * max(a, 1e-3);
+        coarse = coarse || min_step > fine;
+        var z = min(a + max(fine, min_step), span.y);
         if clearance(dir, z) <= 0.0 {
             for (var m = 0u; m < RAY_BISECTIONS; m++) {
                 let mid = 0.5 * (a + z);
@@ -382,10 +387,11 @@ fn ray_cast(dir: vec3<f32>, lo: f32, hi: f32) -> vec2<f32> {
         }
         a = z;
         if a >= span.y {
-            return vec2<f32>(0.0);
+            return vec2<f32>(0.0, select(0.0, 2.0, coarse));
         }
     }
-    // Steps ran out before the interval did (a long grazing ray): keep the mesh's fragment.
+    // Steps ran out before the interval did, or a coarse march missed (a long grazing ray):
+    // keep the mesh's fragment.
     return vec2<f32>(0.0, 2.0);
 }
 
@@ -407,20 +413,29 @@ fn fs_projgrid_ray(in: VertexOut) -> RayCastOut {
         if hit.y == 0.0 {
             discard;
         }
-        if hit.y == 1.0 {
+        if hit.y == 1.0 || hit.y == 3.0 {
             let rel = dir * hit.x;
+            let clip = frame.clip_from_view * vec4<f32>(rel, 1.0);
+            depth = clip.z / clip.w;
             let pt = rel_point(rel);
             v.rel = rel;
             v.p_tilde = pt.p;
             v.map_pos = pt.at.d;
             v.level = pt.level;
             v.coarse_blend = pt.at.blend;
-            let clip = frame.clip_from_view * vec4<f32>(rel, 1.0);
-            depth = clip.z / clip.w;
+            if SKY {
+                // The haze toward the hit, not the cell's vertices': a far cell's fragment
+                // whose ray meets a nearer ridge would otherwise carry the horizon's haze.
+                let eye = vec3<f32>(0.0, 0.0, look.eye_radius_m);
+                let sc = atmosphere_scatter(eye, dir, hit.x, look.sun.xyz, 6u);
+                v.inscatter = sc.inscatter;
+                v.view_t = sc.transmittance;
+                v.sun_t = sun_transmittance(eye + rel, look.sun.xyz);
+            }
         }
     }
     var out: RayCastOut;
-    out.colour = shade(v);
+    out.colour = shade(v, in.rel);
     out.depth = depth;
     return out;
 }

@@ -595,12 +595,14 @@ fn view_from_world(v: vec3<f32>) -> vec3<f32> {
 
 @fragment
 fn fs_main(in: VertexOut) -> @location(0) vec4<f32> {
-    return shade(in);
+    return shade(in, in.rel);
 }
 
 // The shading of every terrain fragment, whichever LOD method placed it (the projected grid's
-// ray cast moves the fragment first: planar.wgsl fs_projgrid_ray).
-fn shade(in_: VertexOut) -> vec4<f32> {
+// ray cast moves the fragment first: planar.wgsl fs_projgrid_ray). Screen derivatives of
+// positions are taken of `rel_d`: the rasterised surface's, smooth across pixels where a ray
+// cast's hits jump from ridge to ridge (textures would drop to their coarsest mips there).
+fn shade(in_: VertexOut, rel_d: vec3<f32>) -> vec4<f32> {
     var in = in_;
     if CUT && in_planar_cut(in.plane_xy) {
         discard;
@@ -618,18 +620,20 @@ fn shade(in_: VertexOut) -> vec4<f32> {
     // World-stable texture coordinates and their screen derivatives, first (derivatives
     // need uniform control flow). Eye-relative: small and precise near the viewer.
     let wrel = look_world(in.rel);
+    let wrel_dx = look_world(dpdx(rel_d));
+    let wrel_dy = look_world(dpdy(rel_d));
     let uvw = look.tex_anchor.xyz + wrel * look.tex_anchor.w;
-    let uvw_dx = dpdx(uvw);
-    let uvw_dy = dpdy(uvw);
+    let uvw_dx = wrel_dx * look.tex_anchor.w;
+    let uvw_dy = wrel_dy * look.tex_anchor.w;
     // Metres of world per pixel (the boundary noise's band limit).
-    let footprint_m = max(length(dpdx(wrel)), length(dpdy(wrel)));
+    let footprint_m = max(length(wrel_dx), length(wrel_dy));
     let drift = look.time_s * vec3<f32>(0.011, 0.007, 0.005);
     let w0 = look.wave_anchor0.xyz + wrel * look.wave_anchor0.w + drift;
     let w1 = look.wave_anchor1.xyz + wrel * look.wave_anchor1.w - 1.7 * drift;
-    let w0_dx = dpdx(w0);
-    let w0_dy = dpdy(w0);
-    let w1_dx = dpdx(w1);
-    let w1_dy = dpdy(w1);
+    let w0_dx = wrel_dx * look.wave_anchor0.w;
+    let w0_dy = wrel_dy * look.wave_anchor0.w;
+    let w1_dx = wrel_dx * look.wave_anchor1.w;
+    let w1_dy = wrel_dy * look.wave_anchor1.w;
 
     let level = in.level;
     let blend = clamp(in.coarse_blend, 0.0, 1.0);
