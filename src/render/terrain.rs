@@ -156,8 +156,8 @@ struct WirePipelines {
     clipmap: [wgpu::RenderPipeline; 3],
     clipmap_cut: [wgpu::RenderPipeline; 3],
     geomip: wgpu::RenderPipeline,
-    /// The projected grid's (built when first needed).
-    grid: Option<wgpu::RenderPipeline>,
+    /// The projected grid's, without and with ray casting (built when first needed).
+    grid: Option<GridPipelines>,
 }
 
 impl TerrainRenderer {
@@ -540,12 +540,16 @@ impl TerrainRenderer {
         if let Some(w) = &mut self.wire_pipelines
             && w.grid.is_none()
         {
-            w.grid = Some(self.pipeline_parts.grid_pipeline(
-                device,
-                self.look,
-                "vs_projgrid_wire",
-                "fs_main",
-            ));
+            let parts = &self.pipeline_parts;
+            w.grid = Some(GridPipelines {
+                plain: parts.grid_pipeline(device, self.look, "vs_projgrid_wire", "fs_main"),
+                ray_cast: parts.grid_pipeline(
+                    device,
+                    self.look,
+                    "vs_projgrid_wire",
+                    "fs_projgrid_ray",
+                ),
+            });
         }
     }
 
@@ -1068,7 +1072,7 @@ impl TerrainRenderer {
             {
                 match wire.and_then(|w| w.grid.as_ref()) {
                     Some(w) => {
-                        pass.set_pipeline(w);
+                        pass.set_pipeline(if grid.ray_cast { &w.ray_cast } else { &w.plain });
                         pass.draw(grid.indices.clone(), 0..1);
                     }
                     None => {
