@@ -556,6 +556,15 @@ impl NetcdfFile {
         Self::parse(path, map)
     }
 
+    /// A netCDF-3 file's bytes already in memory, parsed and checked exactly as
+    /// [`NetcdfFile::open`] does a file (`name` names them in errors). For tests and the fuzz
+    /// harness, which hand the reader bytes without a file.
+    pub fn from_bytes(bytes: Vec<u8>, name: impl AsRef<Path>) -> Result<NetcdfFile, DemError> {
+        let path = name.as_ref().to_path_buf();
+        let map = MappedFile::from_bytes(&path, bytes);
+        Self::parse(path, map)
+    }
+
     fn parse(path: PathBuf, map: MappedFile) -> Result<NetcdfFile, DemError> {
         let mut c = Cursor {
             bytes: &map,

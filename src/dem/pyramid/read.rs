@@ -186,19 +186,37 @@ impl Pyramid {
     pub fn open(path: impl AsRef<Path>) -> Result<Pyramid, DemError> {
         let path = path.as_ref().to_path_buf();
         let file = OpenFile::open(&path)?;
-        let len = file.len();
-        if len == 0 {
-            return Err(DemError::Truncated {
-                path,
-                actual: 0,
-                expected: super::format::FIXED_HEADER_LEN as u64,
-                what: "everything: the file is empty".into(),
-            });
+        if file.len() == 0 {
+            return Err(Self::empty(path));
         }
         // Every access below is bounds-checked against the length validated here; see
         // `crate::dem::mapped` for what remains (SIGBUS on a truncation in place).
-        let map = file.map()?;
-        let header = Header::decode(&map, len, &path)?;
+        Self::validated(path, file.map()?)
+    }
+
+    /// A pyramid file's bytes already in memory, validated exactly as [`Pyramid::open`]
+    /// validates a file (`name` names them in errors). For tests and the fuzz harness, which
+    /// hand the reader bytes without a file.
+    pub fn from_bytes(bytes: Vec<u8>, name: impl AsRef<Path>) -> Result<Pyramid, DemError> {
+        let path = name.as_ref().to_path_buf();
+        if bytes.is_empty() {
+            return Err(Self::empty(path));
+        }
+        let map = MappedFile::from_bytes(&path, bytes);
+        Self::validated(path, map)
+    }
+
+    fn empty(path: PathBuf) -> DemError {
+        DemError::Truncated {
+            path,
+            actual: 0,
+            expected: super::format::FIXED_HEADER_LEN as u64,
+            what: "everything: the file is empty".into(),
+        }
+    }
+
+    fn validated(path: PathBuf, map: MappedFile) -> Result<Pyramid, DemError> {
+        let header = Header::decode(&map, map.len() as u64, &path)?;
         let lay = super::format::layout(&header.levels, header.tile_size, header.description.len());
         Ok(Pyramid {
             path,
