@@ -394,11 +394,59 @@ impl Pyramid {
         ty: usize,
     ) -> Result<TileView<'_>, DemError> {
         let e = self.tile_entry(level, tx, ty)?;
-        let crc = crc32fast::hash(self.tile_bytes(level, tx, ty)?);
+        let bytes = self.tile_bytes(level, tx, ty)?;
+        let crc = crc32fast::hash(bytes);
         if crc != e.crc32 {
             return Err(self.checksum_error(level, tx, ty, e.crc32, crc));
         }
+        self.check_codes(level, tx, ty, bytes)?;
         self.tile(level, tx, ty)
+    }
+
+    /// Checks a tile's codes against the format's rules, which its CRC cannot vouch for (a
+    /// broken writer or a forged file computes a matching CRC): min ≤ avg ≤ max at every sample
+    /// and `i16::MIN` (reserved) nowhere. Returns the lowest min and highest max of the samples
+    /// inside the level's grid.
+    fn check_codes(
+        &self,
+        level: usize,
+        tx: usize,
+        ty: usize,
+        bytes: &[u8],
+    ) -> Result<(i16, i16), DemError> {
+        let t = self.header.tile_size;
+        let l = &self.header.levels[level];
+        let (valid_cols, valid_rows) = ((l.cols - tx * t).min(t), (l.rows - ty * t).min(t));
+        let n = t * t;
+        let code = |p: usize, i: usize| {
+            let at = 2 * (p * n + i);
+            i16::from_le_bytes([bytes[at], bytes[at + 1]])
+        };
+        let (mut lowest, mut highest) = (i16::MAX, i16::MIN);
+        for i in 0..n {
+            let (avg, min, max) = (code(0, i), code(1, i), code(2, i));
+            let (x, y) = (i % t, i / t);
+            if min == i16::MIN || !(min <= avg && avg <= max) {
+                return Err(DemError::TileContent {
+                    path: self.path.clone(),
+                    level,
+                    tx,
+                    ty,
+                    x,
+                    y,
+                    message: format!(
+                        "codes min {min}, avg {avg}, max {max}; expected min ≤ avg ≤ max and \
+                         none {} (reserved)",
+                        i16::MIN
+                    ),
+                });
+            }
+            if x < valid_cols && y < valid_rows {
+                lowest = lowest.min(min);
+                highest = highest.max(max);
+            }
+        }
+        Ok((lowest, highest))
     }
 
     fn checksum_error(
@@ -419,22 +467,42 @@ impl Pyramid {
         }
     }
 
-    /// Checks the file length again and every tile's CRC, in file order; the first bad tile
-    /// is the error (with its level and tile x/y).
+    /// Checks the file length again, every tile's CRC and codes, in file order (the first bad
+    /// tile is the error, with its level and tile x/y), and that the header's height range is
+    /// level 0's.
     pub fn verify(&self) -> Result<VerifyReport, DemError> {
         self.check_length()?;
         let mut bytes = 0u64;
+        let (mut lowest, mut highest) = (i16::MAX, i16::MIN);
         for (level, l) in self.header.levels.iter().enumerate() {
             for ty in 0..l.tiles_y {
                 for tx in 0..l.tiles_x {
                     let e = self.tile_entry(level, tx, ty)?;
-                    let crc = crc32fast::hash(self.tile_bytes(level, tx, ty)?);
+                    let payload = self.tile_bytes(level, tx, ty)?;
+                    let crc = crc32fast::hash(payload);
                     if crc != e.crc32 {
                         return Err(self.checksum_error(level, tx, ty, e.crc32, crc));
+                    }
+                    let (lo, hi) = self.check_codes(level, tx, ty, payload)?;
+                    if level == 0 {
+                        lowest = lowest.min(lo);
+                        highest = highest.max(hi);
                     }
                     bytes += e.len as u64;
                 }
             }
+        }
+        let enc = self.header.encoding;
+        let (min_m, max_m) = (enc.decode(lowest), enc.decode(highest));
+        if (min_m, max_m) != (self.header.min_m, self.header.max_m) {
+            return Err(DemError::Header {
+                path: self.path.clone(),
+                field: "height range".into(),
+                message: format!(
+                    "lowest min {} m, highest max {} m; level 0's tiles hold {min_m} … {max_m} m",
+                    self.header.min_m, self.header.max_m
+                ),
+            });
         }
         Ok(VerifyReport {
             tiles: self.header.index.len(),
