@@ -889,8 +889,10 @@ pub(crate) fn tile_position(
     (level, k % tx, k / tx)
 }
 
+/// Equal within a relative 1e-9; never for an infinity (whose difference is within any
+/// infinite tolerance) or NaN.
 fn close(a: f64, b: f64) -> bool {
-    (a - b).abs() <= 1e-9 * a.abs().max(b.abs()).max(1.0)
+    a.is_finite() && b.is_finite() && (a - b).abs() <= 1e-9 * a.abs().max(b.abs()).max(1.0)
 }
 
 fn put_u32(b: &mut Vec<u8>, v: u32) {
