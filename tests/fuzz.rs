@@ -30,8 +30,10 @@
 //! `tests/fuzz_corpus/<target>/`; `write_seeds` (ignored) regenerates the seeds.
 //!
 //! `cargo test --test fuzz` runs a short, fixed-seed run of each target (CI). Longer:
-//! `GLOBE_FUZZ_ITERS=200000 cargo test --release --test fuzz -- --nocapture` (also
-//! `GLOBE_FUZZ_SEED=n` for another sequence, `GLOBE_FUZZ_TARGET=name` for one target).
+//! `GLOBE_FUZZ_ITERS=1000000 cargo test --test fuzz -- --nocapture`, or `GLOBE_FUZZ_SECS=600`
+//! (the same sequence, stopped after that long); `GLOBE_FUZZ_SEED=n` for another sequence,
+//! `GLOBE_FUZZ_TARGET=name` (or a test name filter) for one target, `GLOBE_FUZZ_VERBOSE=1` for
+//! every outcome seen. The dev profile's overflow checks are part of the net: keep it.
 
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;

@@ -120,7 +120,8 @@ impl EhdrMosaic {
 
     /// Joins opened rasters into one mosaic. The first raster's lattice is the reference: every
     /// other must have the same XDIM/YDIM (relative 1e-9) and sit a whole number of pixels
-    /// from it (within 1e-3 pixel), else the error names both files. Overlaps are compared
+    /// from it (within 1e-3 pixel), else the error names both files. The bounding grid may
+    /// hold at most [`Self::MAX_BOUNDING_FACTOR`] × the tiles' pixels. Overlaps are compared
     /// pixel by pixel here.
     pub fn from_rasters(
         rasters: Vec<EhdrRaster>,
