@@ -417,33 +417,36 @@ impl Pyramid {
         let t = self.header.tile_size;
         let l = &self.header.levels[level];
         let (valid_cols, valid_rows) = ((l.cols - tx * t).min(t), (l.rows - ty * t).min(t));
-        let n = t * t;
-        let code = |p: usize, i: usize| {
-            let at = 2 * (p * n + i);
-            i16::from_le_bytes([bytes[at], bytes[at + 1]])
-        };
+        let plane_bytes = 2 * t * t;
         let (mut lowest, mut highest) = (i16::MAX, i16::MIN);
-        for i in 0..n {
-            let (avg, min, max) = (code(0, i), code(1, i), code(2, i));
-            let (x, y) = (i % t, i / t);
-            if min == i16::MIN || !(min <= avg && avg <= max) {
-                return Err(DemError::TileContent {
-                    path: self.path.clone(),
-                    level,
-                    tx,
-                    ty,
-                    x,
-                    y,
-                    message: format!(
-                        "codes min {min}, avg {avg}, max {max}; expected min ≤ avg ≤ max and \
-                         none {} (reserved)",
-                        i16::MIN
-                    ),
-                });
-            }
-            if x < valid_cols && y < valid_rows {
-                lowest = lowest.min(min);
-                highest = highest.max(max);
+        for y in 0..t {
+            // Row y of plane p, decoded (the payload's length was checked at open).
+            let row = |p: usize| {
+                let at = p * plane_bytes + 2 * y * t;
+                bytes[at..at + 2 * t]
+                    .chunks_exact(2)
+                    .map(|c| i16::from_le_bytes([c[0], c[1]]))
+            };
+            for (x, ((avg, min), max)) in row(0).zip(row(1)).zip(row(2)).enumerate() {
+                if min == i16::MIN || !(min <= avg && avg <= max) {
+                    return Err(DemError::TileContent {
+                        path: self.path.clone(),
+                        level,
+                        tx,
+                        ty,
+                        x,
+                        y,
+                        message: format!(
+                            "codes min {min}, avg {avg}, max {max}; expected min ≤ avg ≤ max \
+                             and none {} (reserved)",
+                            i16::MIN
+                        ),
+                    });
+                }
+                if x < valid_cols && y < valid_rows {
+                    lowest = lowest.min(min);
+                    highest = highest.max(max);
+                }
             }
         }
         Ok((lowest, highest))
