@@ -8,7 +8,8 @@
 //!   between pixel centres; a pixel centre returns its stored value exactly).
 //! * [`EhdrMosaic`] joins a folder of tiles (the 33 GTOPO30 tiles or any subset, Antarctica's
 //!   7200×3600 shape included) into one [`RasterSource`](crate::dem::RasterSource) over the
-//!   bounding grid of their union.
+//!   bounding grid of their union (which they must cover at least 1/64 of: the grid is read
+//!   in full, [`EhdrMosaic::MAX_BOUNDING_FACTOR`]).
 //! * [`write_ehdr`] writes GTOPO30-style tiles (`.DEM` + `.HDR`), for tests and `globe-data synth`.
 //!
 //! # Conventions, and where we follow GDAL's EHdr driver

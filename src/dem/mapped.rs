@@ -2,6 +2,10 @@
 //! data files, netCDF-3 files) opens it here, so the `unsafe` call and its safety argument
 //! stand in one place (`dem` denies `unsafe_code` everywhere else).
 //!
+//! The same type also holds a file's bytes already in memory ([`MappedFile::from_bytes`]): the
+//! readers' `from_bytes` constructors (tests and the fuzz harness hand them bytes, no file),
+//! which run exactly the checks of `open`.
+//!
 //! # Safety argument
 //!
 //! `Mmap::map` is `unsafe` because the slice it returns is only valid while nobody changes the
@@ -86,18 +90,26 @@ impl OpenFile {
         }
         Ok(MappedFile {
             path: self.path,
-            file: self.file,
-            map,
+            bytes: Storage::Map {
+                file: self.file,
+                map,
+            },
         })
     }
 }
 
-/// A read-only memory map of a whole file, as validated at open; dereferences to its bytes.
-/// The file stays open so that its length can be re-checked ([`MappedFile::current_len`]).
+/// A read-only memory map of a whole file, as validated at open, or the bytes of one held in
+/// memory; dereferences to its bytes. A mapped file stays open so that its length can be
+/// re-checked ([`MappedFile::current_len`]).
 pub(crate) struct MappedFile {
     path: PathBuf,
-    file: File,
-    map: Mmap,
+    bytes: Storage,
+}
+
+/// Where the bytes are.
+enum Storage {
+    Map { file: File, map: Mmap },
+    Owned(Vec<u8>),
 }
 
 impl MappedFile {
@@ -106,17 +118,28 @@ impl MappedFile {
         OpenFile::open(path)?.map()
     }
 
+    /// Bytes already in memory, as if read from `path` (which only names them in errors).
+    pub(crate) fn from_bytes(path: &Path, bytes: Vec<u8>) -> MappedFile {
+        MappedFile {
+            path: path.to_path_buf(),
+            bytes: Storage::Owned(bytes),
+        }
+    }
+
     /// The file's length now (one `fstat`): differs from the mapped length when another
-    /// process truncated or extended the file in place since it was mapped.
+    /// process truncated or extended the file in place since it was mapped. Bytes in memory
+    /// cannot change.
     pub(crate) fn current_len(&self) -> Result<u64, DemError> {
-        Ok(self
-            .file
-            .metadata()
-            .map_err(|source| DemError::Io {
-                path: self.path.clone(),
-                source,
-            })?
-            .len())
+        match &self.bytes {
+            Storage::Map { file, .. } => Ok(file
+                .metadata()
+                .map_err(|source| DemError::Io {
+                    path: self.path.clone(),
+                    source,
+                })?
+                .len()),
+            Storage::Owned(v) => Ok(v.len() as u64),
+        }
     }
 }
 
@@ -124,6 +147,9 @@ impl Deref for MappedFile {
     type Target = [u8];
 
     fn deref(&self) -> &[u8] {
-        &self.map
+        match &self.bytes {
+            Storage::Map { map, .. } => map,
+            Storage::Owned(v) => v,
+        }
     }
 }

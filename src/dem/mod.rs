@@ -71,4 +71,17 @@ pub enum DemError {
         expected: u32,
         actual: u32,
     },
+    /// A pyramid tile whose payload matches its CRC but breaks the format's rules (min ≤ avg ≤
+    /// max, `i16::MIN` never written): a broken writer or a forged file.
+    #[error("{path}: level {level} tile ({tx}, {ty}) sample ({x}, {y}): {message}")]
+    TileContent {
+        path: std::path::PathBuf,
+        level: usize,
+        tx: usize,
+        ty: usize,
+        /// The sample within the tile (column, row).
+        x: usize,
+        y: usize,
+        message: String,
+    },
 }

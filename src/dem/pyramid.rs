@@ -124,8 +124,11 @@
 //! version message), header CRC, that the level table is exactly what level 0 and T imply,
 //! that every index entry lies in order inside the file, and the file's real length against
 //! the header (a truncated file names the first incomplete tile and how much is missing).
-//! Tile payloads are checked by CRC in [`Pyramid::verify`] (all, reporting the first bad tile
-//! by level and tile x/y) and [`Pyramid::tile_verified`] (one, the streamer's path).
+//! Tile payloads are checked by CRC, and their codes against the rules above (min ≤ avg ≤ max,
+//! no `i16::MIN`: a CRC vouches for the bytes, not for the writer), in [`Pyramid::verify`] (all,
+//! reporting the first bad tile by level and tile x/y, and the header's height range against
+//! level 0) and [`Pyramid::tile_verified`] (one, the streamer's path). `open` checks that the
+//! header's height range is finite, lowest first, within what the codes hold.
 //!
 //! # Memory (the writer streams)
 //!

@@ -67,6 +67,13 @@ fn values_agree(a: f32, b: f32) -> bool {
 }
 
 impl EhdrMosaic {
+    /// A mosaic's bounding grid may hold at most this many times the pixels of its tiles: it is
+    /// read (and stored in a pyramid) in full, so two small tiles far apart on a fine lattice
+    /// would otherwise ask for gigabytes (two 6 × 8 tiles at XDIM 1e-10, 0.5° apart, made a
+    /// 5·10⁹-column mosaic: a 20 GB row). GTOPO30's sparsest subset, two opposite corner
+    /// tiles, fills 1/17 of its bounding grid.
+    pub const MAX_BOUNDING_FACTOR: usize = 64;
+
     /// Opens every `.HDR` (any case) in `dir` (not recursively) with its data file, as one
     /// mosaic. The tiles must share XDIM/YDIM and one pixel lattice; see [`Self::from_rasters`].
     pub fn open_dir(dir: &Path) -> Result<EhdrMosaic, DemError> {
@@ -113,7 +120,8 @@ impl EhdrMosaic {
 
     /// Joins opened rasters into one mosaic. The first raster's lattice is the reference: every
     /// other must have the same XDIM/YDIM (relative 1e-9) and sit a whole number of pixels
-    /// from it (within 1e-3 pixel), else the error names both files. Overlaps are compared
+    /// from it (within 1e-3 pixel), else the error names both files. The bounding grid may
+    /// hold at most [`Self::MAX_BOUNDING_FACTOR`] × the tiles' pixels. Overlaps are compared
     /// pixel by pixel here.
     pub fn from_rasters(
         rasters: Vec<EhdrRaster>,
@@ -178,6 +186,7 @@ impl EhdrMosaic {
         let mut max_c = i64::MIN;
         let mut north = 0;
         let mut west = 0;
+        let mut east = 0;
         for (i, (t, &(kr, kc))) in rasters.iter().zip(&offsets).enumerate() {
             let h = t.header();
             if kr < min_r {
@@ -189,7 +198,10 @@ impl EhdrMosaic {
                 west = i;
             }
             max_r = max_r.max(kr + h.nrows as i64);
-            max_c = max_c.max(kc + h.ncols as i64);
+            if kc + h.ncols as i64 > max_c {
+                max_c = kc + h.ncols as i64;
+                east = i;
+            }
         }
         let rows = (max_r - min_r) as usize;
         let cols = (max_c - min_c) as usize;
@@ -200,6 +212,29 @@ impl EhdrMosaic {
                 message: format!(
                     "the tiles of {description} span {width}° of longitude from this, the \
                      westernmost tile; expected at most 360° (mixed longitude conventions?)"
+                ),
+            });
+        }
+        // Bounded by the tiles, before anything allocates or reads by the bounding grid.
+        let tile_pixels: u128 = rasters
+            .iter()
+            .map(|t| t.header().nrows as u128 * t.header().ncols as u128)
+            .sum();
+        let bounding = rows as u128 * cols as u128;
+        if bounding > EhdrMosaic::MAX_BOUNDING_FACTOR as u128 * tile_pixels {
+            return Err(DemError::Data {
+                path: description.clone().into(),
+                message: format!(
+                    "the tiles hold {tile_pixels} pixels but span a bounding grid of {cols} × \
+                     {rows} = {bounding} pixels at XDIM {}, YDIM {} ({} is the westernmost \
+                     tile, {} the easternmost); expected tiles covering at least 1/{} of their \
+                     bounding grid: a mosaic is read and stored in full, so tiles far apart on \
+                     a fine lattice would make a mostly empty raster",
+                    rg.dlon_deg,
+                    rg.dlat_deg,
+                    file_name(rasters[west].header_path()),
+                    file_name(rasters[east].header_path()),
+                    EhdrMosaic::MAX_BOUNDING_FACTOR,
                 ),
             });
         }

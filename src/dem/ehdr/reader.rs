@@ -186,17 +186,29 @@ fn read_header_text(path: &Path) -> Result<String, DemError> {
         .map_err(|e| io_error(path, e))?
         .len();
     if len > MAX_HEADER_BYTES {
-        return Err(DemError::Header {
-            path: path.to_path_buf(),
-            field: "(file)".into(),
-            message: format!(
-                "header is {len} bytes; expected a short text file of `KEY value` lines (at most \
-                 {MAX_HEADER_BYTES} bytes) — is this an EHdr .HDR?"
-            ),
-        });
+        return Err(header_too_long(path, len));
     }
     let bytes = std::fs::read(path).map_err(|e| io_error(path, e))?;
-    Ok(String::from_utf8_lossy(&bytes).into_owned())
+    header_text(&bytes, path)
+}
+
+fn header_too_long(path: &Path, len: u64) -> DemError {
+    DemError::Header {
+        path: path.to_path_buf(),
+        field: "(file)".into(),
+        message: format!(
+            "header is {len} bytes; expected a short text file of `KEY value` lines (at most \
+             {MAX_HEADER_BYTES} bytes) — is this an EHdr .HDR?"
+        ),
+    }
+}
+
+/// The header's text (invalid UTF-8 replaced: only ASCII keys and numbers matter).
+fn header_text(bytes: &[u8], path: &Path) -> Result<String, DemError> {
+    if bytes.len() as u64 > MAX_HEADER_BYTES {
+        return Err(header_too_long(path, bytes.len() as u64));
+    }
+    Ok(String::from_utf8_lossy(bytes).into_owned())
 }
 
 /// One decoding loop: `conv` turns a sample's bytes into a value, NODATA becomes NaN.
@@ -298,6 +310,46 @@ fn decode(
     }
 }
 
+/// The header, parsed with GDAL's inferences from the data file and checked against the data
+/// file's length `len`, which must be exactly what the header implies.
+fn checked_header(
+    text: &str,
+    hdr_path: &Path,
+    data_path: &Path,
+    len: u64,
+) -> Result<EhdrHeader, DemError> {
+    let facts = DataFileFacts {
+        len,
+        is_flt: data_path
+            .extension()
+            .is_some_and(|x| x.eq_ignore_ascii_case("flt")),
+    };
+    let header = EhdrHeader::parse_inner(text, hdr_path, Some(&facts))?;
+    let expected = header.expected_data_len();
+    if len != expected {
+        let verdict = if len < expected {
+            "shorter than that (truncated?)".to_string()
+        } else {
+            format!(
+                "{} bytes longer than that (GDAL tolerates trailing bytes; we reject them: the \
+                 header may not describe this file)",
+                len - expected
+            )
+        };
+        return Err(DemError::Data {
+            path: data_path.to_path_buf(),
+            message: format!(
+                "data file is {len} bytes but {} implies exactly {expected} bytes ({}, {}); it \
+                 is {verdict}",
+                file_name(hdr_path),
+                header.describe_data_len(),
+                header.sample_type.describe(),
+            ),
+        });
+    }
+    Ok(header)
+}
+
 impl EhdrRaster {
     /// Opens a raster from its `.HDR` or its data file (`.DEM`, `.BIL`, `.FLT`, `.BIP`, `.BSQ`,
     /// any case), validating the header against the data file; see the module documentation.
@@ -305,46 +357,44 @@ impl EhdrRaster {
         let (hdr_path, data_path) = locate(path)?;
         let text = read_header_text(&hdr_path)?;
         let file = OpenFile::open(&data_path)?;
-        let len = file.len();
-        let facts = DataFileFacts {
-            len,
-            is_flt: data_path
-                .extension()
-                .is_some_and(|x| x.eq_ignore_ascii_case("flt")),
-        };
-        let header = EhdrHeader::parse_inner(&text, &hdr_path, Some(&facts))?;
-        let expected = header.expected_data_len();
-        if len != expected {
-            let verdict = if len < expected {
-                "shorter than that (truncated?)".to_string()
-            } else {
-                format!(
-                    "{} bytes longer than that (GDAL tolerates trailing bytes; we reject them: \
-                     the header may not describe this file)",
-                    len - expected
-                )
-            };
-            return Err(DemError::Data {
-                path: data_path.clone(),
-                message: format!(
-                    "data file is {len} bytes but {} implies exactly {expected} bytes ({}, {}); \
-                     it is {verdict}",
-                    file_name(&hdr_path),
-                    header.describe_data_len(),
-                    header.sample_type.describe(),
-                ),
-            });
-        }
-        // The map is checked to be `expected` bytes long (the length measured above).
+        let header = checked_header(&text, &hdr_path, &data_path, file.len())?;
+        // The map is checked to be as long as measured above, which the header was checked
+        // against.
         let map = file.map()?;
+        Ok(EhdrRaster::with(header, hdr_path, data_path, map))
+    }
+
+    /// A raster whose header and data file are already in memory, validated exactly as
+    /// [`EhdrRaster::open`] validates files (the paths name them in errors; the data file's
+    /// extension counts, as for a file: `.FLT` implies FLOAT). For tests and the fuzz harness,
+    /// which hand the reader bytes without files.
+    pub fn from_bytes(
+        header: &[u8],
+        hdr_path: impl AsRef<Path>,
+        data: Vec<u8>,
+        data_path: impl AsRef<Path>,
+    ) -> Result<EhdrRaster, DemError> {
+        let (hdr_path, data_path) = (hdr_path.as_ref(), data_path.as_ref());
+        let text = header_text(header, hdr_path)?;
+        let header = checked_header(&text, hdr_path, data_path, data.len() as u64)?;
+        let map = MappedFile::from_bytes(data_path, data);
+        Ok(EhdrRaster::with(
+            header,
+            hdr_path.to_path_buf(),
+            data_path.to_path_buf(),
+            map,
+        ))
+    }
+
+    fn with(header: EhdrHeader, hdr_path: PathBuf, data_path: PathBuf, map: MappedFile) -> Self {
         let nodata = NodataRule::new(header.nodata, header.sample_type);
-        Ok(EhdrRaster {
+        EhdrRaster {
             header,
             hdr_path,
             data_path,
             map,
             nodata,
-        })
+        }
     }
 
     pub fn header(&self) -> &EhdrHeader {

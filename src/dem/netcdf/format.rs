@@ -543,8 +543,9 @@ impl<'a> Cursor<'a> {
     }
 }
 
-fn pad4(n: u64) -> u64 {
-    n.div_ceil(4) * 4
+/// `n` rounded up to a multiple of 4; `None` past `u64::MAX`.
+fn pad4(n: u64) -> Option<u64> {
+    n.div_ceil(4).checked_mul(4)
 }
 
 impl NetcdfFile {
@@ -553,6 +554,15 @@ impl NetcdfFile {
     pub fn open(path: impl AsRef<Path>) -> Result<NetcdfFile, DemError> {
         let path = path.as_ref().to_path_buf();
         let map = MappedFile::open(&path)?;
+        Self::parse(path, map)
+    }
+
+    /// A netCDF-3 file's bytes already in memory, parsed and checked exactly as
+    /// [`NetcdfFile::open`] does a file (`name` names them in errors). For tests and the fuzz
+    /// harness, which hand the reader bytes without a file.
+    pub fn from_bytes(bytes: Vec<u8>, name: impl AsRef<Path>) -> Result<NetcdfFile, DemError> {
+        let path = name.as_ref().to_path_buf();
+        let map = MappedFile::from_bytes(&path, bytes);
         Self::parse(path, map)
     }
 
@@ -601,7 +611,23 @@ impl NetcdfFile {
         self.record_size = match rec_slabs.as_slice() {
             [] => 0,
             [one] => *one,
-            many => many.iter().map(|&s| pad4(s)).sum(),
+            many => {
+                let mut sum = 0u64;
+                let record_vars = self.vars.iter().filter(|v| v.is_record);
+                for (&slab, v) in many.iter().zip(record_vars) {
+                    sum = pad4(slab).and_then(|s| sum.checked_add(s)).ok_or_else(|| {
+                        self.header_err(
+                            &format!("var_list[{:?}]", v.name),
+                            format!(
+                                "record size overflows: this record variable's {slab}-byte \
+                                 slab brings a record past 2^64 bytes; expected records that \
+                                 fit a file"
+                            ),
+                        )
+                    })?;
+                }
+                sum
+            }
         };
         let file_len = self.map.len() as u64;
         self.num_records = if numrecs_raw == STREAMING {

@@ -603,12 +603,31 @@ impl Decoder<'_> {
             ));
         }
         let e = f.encoding;
-        if !(e.quantum_m.is_finite() && e.quantum_m > 0.0 && e.offset_m.is_finite()) {
+        let (lowest, highest) = e.range_m();
+        if !(e.quantum_m.is_finite()
+            && e.quantum_m > 0.0
+            && e.offset_m.is_finite()
+            && lowest.is_finite()
+            && highest.is_finite())
+        {
             return Err(self.field_err(
                 "encoding",
                 format!(
-                    "quantum {} m, offset {} m: expected a finite quantum > 0 and a finite offset",
+                    "quantum {} m, offset {} m: expected a finite quantum > 0 and a finite offset \
+                     whose codes ±{CODE_MAX} are finite heights",
                     e.quantum_m, e.offset_m
+                ),
+            ));
+        }
+        // The range of level 0 (what a reader takes as the terrain's height range): heights
+        // the codes can hold, lowest first.
+        if !(lowest <= f.min_m && f.min_m <= f.max_m && f.max_m <= highest) {
+            return Err(self.field_err(
+                "height range",
+                format!(
+                    "lowest min {} m, highest max {} m; expected finite heights, lowest first, \
+                     within the encoding's {lowest} … {highest} m",
+                    f.min_m, f.max_m
                 ),
             ));
         }
@@ -870,8 +889,10 @@ pub(crate) fn tile_position(
     (level, k % tx, k / tx)
 }
 
+/// Equal within a relative 1e-9; never for an infinity (whose difference is within any
+/// infinite tolerance) or NaN.
 fn close(a: f64, b: f64) -> bool {
-    (a - b).abs() <= 1e-9 * a.abs().max(b.abs()).max(1.0)
+    a.is_finite() && b.is_finite() && (a - b).abs() <= 1e-9 * a.abs().max(b.abs()).max(1.0)
 }
 
 fn put_u32(b: &mut Vec<u8>, v: u32) {

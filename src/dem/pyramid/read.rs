@@ -186,19 +186,37 @@ impl Pyramid {
     pub fn open(path: impl AsRef<Path>) -> Result<Pyramid, DemError> {
         let path = path.as_ref().to_path_buf();
         let file = OpenFile::open(&path)?;
-        let len = file.len();
-        if len == 0 {
-            return Err(DemError::Truncated {
-                path,
-                actual: 0,
-                expected: super::format::FIXED_HEADER_LEN as u64,
-                what: "everything: the file is empty".into(),
-            });
+        if file.len() == 0 {
+            return Err(Self::empty(path));
         }
         // Every access below is bounds-checked against the length validated here; see
         // `crate::dem::mapped` for what remains (SIGBUS on a truncation in place).
-        let map = file.map()?;
-        let header = Header::decode(&map, len, &path)?;
+        Self::validated(path, file.map()?)
+    }
+
+    /// A pyramid file's bytes already in memory, validated exactly as [`Pyramid::open`]
+    /// validates a file (`name` names them in errors). For tests and the fuzz harness, which
+    /// hand the reader bytes without a file.
+    pub fn from_bytes(bytes: Vec<u8>, name: impl AsRef<Path>) -> Result<Pyramid, DemError> {
+        let path = name.as_ref().to_path_buf();
+        if bytes.is_empty() {
+            return Err(Self::empty(path));
+        }
+        let map = MappedFile::from_bytes(&path, bytes);
+        Self::validated(path, map)
+    }
+
+    fn empty(path: PathBuf) -> DemError {
+        DemError::Truncated {
+            path,
+            actual: 0,
+            expected: super::format::FIXED_HEADER_LEN as u64,
+            what: "everything: the file is empty".into(),
+        }
+    }
+
+    fn validated(path: PathBuf, map: MappedFile) -> Result<Pyramid, DemError> {
+        let header = Header::decode(&map, map.len() as u64, &path)?;
         let lay = super::format::layout(&header.levels, header.tile_size, header.description.len());
         Ok(Pyramid {
             path,
@@ -376,11 +394,62 @@ impl Pyramid {
         ty: usize,
     ) -> Result<TileView<'_>, DemError> {
         let e = self.tile_entry(level, tx, ty)?;
-        let crc = crc32fast::hash(self.tile_bytes(level, tx, ty)?);
+        let bytes = self.tile_bytes(level, tx, ty)?;
+        let crc = crc32fast::hash(bytes);
         if crc != e.crc32 {
             return Err(self.checksum_error(level, tx, ty, e.crc32, crc));
         }
+        self.check_codes(level, tx, ty, bytes)?;
         self.tile(level, tx, ty)
+    }
+
+    /// Checks a tile's codes against the format's rules, which its CRC cannot vouch for (a
+    /// broken writer or a forged file computes a matching CRC): min ≤ avg ≤ max at every sample
+    /// and `i16::MIN` (reserved) nowhere. Returns the lowest min and highest max of the samples
+    /// inside the level's grid.
+    fn check_codes(
+        &self,
+        level: usize,
+        tx: usize,
+        ty: usize,
+        bytes: &[u8],
+    ) -> Result<(i16, i16), DemError> {
+        let t = self.header.tile_size;
+        let l = &self.header.levels[level];
+        let (valid_cols, valid_rows) = ((l.cols - tx * t).min(t), (l.rows - ty * t).min(t));
+        let plane_bytes = 2 * t * t;
+        let (mut lowest, mut highest) = (i16::MAX, i16::MIN);
+        for y in 0..t {
+            // Row y of plane p, decoded (the payload's length was checked at open).
+            let row = |p: usize| {
+                let at = p * plane_bytes + 2 * y * t;
+                bytes[at..at + 2 * t]
+                    .chunks_exact(2)
+                    .map(|c| i16::from_le_bytes([c[0], c[1]]))
+            };
+            for (x, ((avg, min), max)) in row(0).zip(row(1)).zip(row(2)).enumerate() {
+                if min == i16::MIN || !(min <= avg && avg <= max) {
+                    return Err(DemError::TileContent {
+                        path: self.path.clone(),
+                        level,
+                        tx,
+                        ty,
+                        x,
+                        y,
+                        message: format!(
+                            "codes min {min}, avg {avg}, max {max}; expected min ≤ avg ≤ max \
+                             and none {} (reserved)",
+                            i16::MIN
+                        ),
+                    });
+                }
+                if x < valid_cols && y < valid_rows {
+                    lowest = lowest.min(min);
+                    highest = highest.max(max);
+                }
+            }
+        }
+        Ok((lowest, highest))
     }
 
     fn checksum_error(
@@ -401,22 +470,42 @@ impl Pyramid {
         }
     }
 
-    /// Checks the file length again and every tile's CRC, in file order; the first bad tile
-    /// is the error (with its level and tile x/y).
+    /// Checks the file length again, every tile's CRC and codes, in file order (the first bad
+    /// tile is the error, with its level and tile x/y), and that the header's height range is
+    /// level 0's.
     pub fn verify(&self) -> Result<VerifyReport, DemError> {
         self.check_length()?;
         let mut bytes = 0u64;
+        let (mut lowest, mut highest) = (i16::MAX, i16::MIN);
         for (level, l) in self.header.levels.iter().enumerate() {
             for ty in 0..l.tiles_y {
                 for tx in 0..l.tiles_x {
                     let e = self.tile_entry(level, tx, ty)?;
-                    let crc = crc32fast::hash(self.tile_bytes(level, tx, ty)?);
+                    let payload = self.tile_bytes(level, tx, ty)?;
+                    let crc = crc32fast::hash(payload);
                     if crc != e.crc32 {
                         return Err(self.checksum_error(level, tx, ty, e.crc32, crc));
+                    }
+                    let (lo, hi) = self.check_codes(level, tx, ty, payload)?;
+                    if level == 0 {
+                        lowest = lowest.min(lo);
+                        highest = highest.max(hi);
                     }
                     bytes += e.len as u64;
                 }
             }
+        }
+        let enc = self.header.encoding;
+        let (min_m, max_m) = (enc.decode(lowest), enc.decode(highest));
+        if (min_m, max_m) != (self.header.min_m, self.header.max_m) {
+            return Err(DemError::Header {
+                path: self.path.clone(),
+                field: "height range".into(),
+                message: format!(
+                    "lowest min {} m, highest max {} m; level 0's tiles hold {min_m} … {max_m} m",
+                    self.header.min_m, self.header.max_m
+                ),
+            });
         }
         Ok(VerifyReport {
             tiles: self.header.index.len(),
