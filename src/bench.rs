@@ -40,7 +40,7 @@ pub enum BenchError {
     JumpNeedsDem,
     #[error("cannot start the tile streamer: {0}")]
     Streamer(#[source] std::io::Error),
-    #[error("measuring the error: {0}")]
+    #[error(transparent)]
     Measure(#[from] crate::measure::MeasureError),
 }
 
