@@ -40,6 +40,8 @@ pub enum BenchError {
     JumpNeedsDem,
     #[error("cannot start the tile streamer: {0}")]
     Streamer(#[source] std::io::Error),
+    #[error(transparent)]
+    Measure(#[from] crate::measure::MeasureError),
 }
 
 #[derive(Clone, Debug)]
@@ -170,12 +172,36 @@ pub fn pixels_differing(a: &RenderedFrame, b: &RenderedFrame) -> usize {
         .count()
 }
 
-/// Runs the benchmark. `progress(done, total)` is called after each frame.
+/// How a run's error measurement is watched (`--measure-timeout`, its progress line).
+pub struct MeasureWatch<'a> {
+    /// The reference ray cast stops past it ([`crate::measure::MeasureError::TimedOut`]).
+    pub limit: Option<std::time::Duration>,
+    /// `(pixels cast, pixels)`, about every [`crate::measure::PROGRESS_INTERVAL`].
+    pub progress: &'a mut dyn FnMut(usize, usize),
+}
+
+/// Runs the benchmark. `progress(done, total)` is called after each frame; the error
+/// measurement has no time limit.
 pub fn run(
     ctx: &GpuContext,
     terrain: &Terrain,
     options: &BenchOptions,
+    progress: impl FnMut(usize, usize),
+) -> Result<BenchRun, BenchError> {
+    let watch = MeasureWatch {
+        limit: None,
+        progress: &mut |_, _| {},
+    };
+    run_with(ctx, terrain, options, progress, watch)
+}
+
+/// [`run`], its error measurement watched by `measure`.
+pub fn run_with(
+    ctx: &GpuContext,
+    terrain: &Terrain,
+    options: &BenchOptions,
     mut progress: impl FnMut(usize, usize),
+    measure: MeasureWatch<'_>,
 ) -> Result<BenchRun, BenchError> {
     let started = Instant::now();
     let view = fixed_view(options)?;
@@ -198,7 +224,7 @@ pub fn run(
         None => flight::frame_camera(i, options.frames, ground),
     };
     if let Some(camera) = &fixed {
-        renderer.settle(ctx, camera, options.width, options.height, SETTLE_TIMEOUT);
+        renderer.settle_or_explain(ctx, camera, options.width, options.height, SETTLE_TIMEOUT)?;
         for _ in 0..options.warmup {
             target.draw_timed(ctx, &mut renderer, camera, timer.as_ref())?;
         }
@@ -243,13 +269,18 @@ pub fn run(
         (None, true, None, None);
     if is_flight {
         let t = Instant::now();
-        settled = renderer.settle(
+        settled = match renderer.settle_or_explain(
             ctx,
             &final_camera,
             options.width,
             options.height,
             SETTLE_TIMEOUT,
-        );
+        ) {
+            Ok(()) => true,
+            // Never settling is the flight's finding; settings that cannot work are an error.
+            Err(RenderError::NotSettled { .. }) => false,
+            Err(e) => return Err(e.into()),
+        };
         settle_s = Some(t.elapsed().as_secs_f64());
         let last = target.render_now(ctx, &mut renderer, &final_camera)?;
         // The reference: a fresh renderer with no faults that waited for everything.
@@ -270,8 +301,13 @@ pub fn run(
             Some(f) => f,
             None => target.render(ctx, &mut renderer, &final_camera)?,
         };
-        let stats = crate::measure::evaluate(&frame, &final_camera, terrain, true)
-            .map_err(|e| RenderError::Readback(e.to_string()))?;
+        let stats = crate::measure::evaluate_within(
+            &frame,
+            &final_camera,
+            terrain,
+            measure.limit,
+            measure.progress,
+        )?;
         final_frame = Some(frame);
         Some(stats)
     } else {
@@ -680,7 +716,7 @@ pub fn jump(
         options.stream,
     )?;
     let target = OffscreenFrame::new(&ctx.device, options.width, options.height);
-    renderer.settle(ctx, &a, options.width, options.height, SETTLE_TIMEOUT);
+    renderer.settle_or_explain(ctx, &a, options.width, options.height, SETTLE_TIMEOUT)?;
     let before = target.draw_timed(ctx, &mut renderer, &a, None)?;
     let s0 = before.info.stream.unwrap_or_default().stream;
     let started = Instant::now();

@@ -113,6 +113,16 @@ impl Progress {
         self.show(true);
     }
 
+    /// What is being done now, within the current step (a step's own progress): shown beside
+    /// the bar, or in the next rate-limited line.
+    pub fn note(&mut self, message: impl Into<String>) {
+        self.message = message.into();
+        if let Output::Bar(bar) = &self.output {
+            bar.set_message(self.message.clone());
+        }
+        self.show(false);
+    }
+
     fn show(&mut self, force: bool) {
         let line = self.line();
         match &mut self.output {

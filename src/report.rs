@@ -280,6 +280,8 @@ pub struct Step {
     pub index: usize,
     pub total: usize,
     pub message: String,
+    /// Within a reference ray cast: (pixels cast, pixels), told again as it goes.
+    pub pixels: Option<(usize, usize)>,
 }
 
 /// Runs every setting over every view. `progress` is told of each step before it starts.
@@ -287,6 +289,18 @@ pub fn run(
     ctx: &GpuContext,
     terrain: &Terrain,
     options: &ReportOptions,
+    progress: impl FnMut(&Step),
+) -> Result<Vec<Row>, BenchError> {
+    run_within(ctx, terrain, options, None, progress)
+}
+
+/// [`run`], each view's reference ray cast within `measure_limit` (None: none; past it,
+/// [`crate::measure::MeasureError::TimedOut`]) and its progress told as [`Step::pixels`].
+pub fn run_within(
+    ctx: &GpuContext,
+    terrain: &Terrain,
+    options: &ReportOptions,
+    measure_limit: Option<std::time::Duration>,
     mut progress: impl FnMut(&Step),
 ) -> Result<Vec<Row>, BenchError> {
     let grid = if options.projgrid_tables {
@@ -296,39 +310,54 @@ pub fn run(
     };
     let views = views(options)?;
     let total = views.len() * (1 + grid.len());
-    let mut index = 0;
-    let mut step = |message: String| {
+    let mut index: usize = 0;
+    let mut step = |message: String, pixels: Option<(usize, usize)>| {
+        let within = pixels.is_some();
         progress(&Step {
-            index,
+            index: if within {
+                index.saturating_sub(1)
+            } else {
+                index
+            },
             total,
             message,
+            pixels,
         });
-        index += 1;
+        if !within {
+            index += 1;
+        }
     };
     let timer = GpuTimer::new(ctx);
     let target = OffscreenFrame::new(&ctx.device, options.width, options.height);
     let mut rows = Vec::new();
     for (si, (name, view)) in views.iter().enumerate() {
         let camera = view.camera(|lat, lon| terrain.height_at_lat_lon_m(lat, lon));
-        step(format!(
+        let message = format!(
             "[{}/{}] {name}: reference ray cast at {}×{}",
             si + 1,
             views.len(),
             options.width,
             options.height
-        ));
+        );
+        step(message.clone(), None);
         let reference: ReferenceImage =
-            RayCaster::new(terrain, &camera, options.width, options.height)
-                .cast(&PixelSet::Every(options.every.max(1)));
+            RayCaster::new(terrain, &camera, options.width, options.height).cast_within(
+                &PixelSet::Every(options.every.max(1)),
+                measure_limit,
+                |done, all| step(message.clone(), Some((done, all))),
+            )?;
         for (k, setting) in grid.iter().enumerate() {
-            step(format!(
-                "[{}/{}] {name}: setting {}/{} {}",
-                si + 1,
-                views.len(),
-                k + 1,
-                grid.len(),
-                setting.change
-            ));
+            step(
+                format!(
+                    "[{}/{}] {name}: setting {}/{} {}",
+                    si + 1,
+                    views.len(),
+                    k + 1,
+                    grid.len(),
+                    setting.change
+                ),
+                None,
+            );
             let mut r = TerrainRenderer::with_streaming(
                 &ctx.device,
                 setting.settings.clone(),
@@ -339,7 +368,7 @@ pub fn run(
             r.overlays.levels = setting.change.overlay_levels();
             r.set_look(&ctx.device, options.look);
             r.set_lod(&ctx.device, setting.change.lod(options.lod));
-            r.settle(ctx, &camera, options.width, options.height, SETTLE_TIMEOUT);
+            r.settle_or_explain(ctx, &camera, options.width, options.height, SETTLE_TIMEOUT)?;
             let mut timed = Vec::new();
             for i in 0..options.frames + 2 {
                 let f = target.draw_timed(ctx, &mut r, &camera, timer.as_ref())?;

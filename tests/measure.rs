@@ -584,3 +584,185 @@ fn reference_timing() {
         );
     }
 }
+
+/// An ETOPO5-shaped raster, coarse: 1° pixels with a row of centres on each pole holding one
+/// value all round (ETOPO5's −4290 m and 2810 m), a checkerboard of ±500 m around it
+/// elsewhere, so that next to the pole neighbouring columns differ by the whole local range.
+struct PoleRows;
+
+const POLE_ROWS_DEG: f64 = 1.0;
+
+impl globe::dem::RasterSource for PoleRows {
+    fn grid(&self) -> globe::dem::GeoGrid {
+        globe::dem::GeoGrid {
+            cols: (360.0 / POLE_ROWS_DEG) as usize,
+            rows: (180.0 / POLE_ROWS_DEG) as usize + 1,
+            lon0_deg: 0.0,
+            lat0_deg: 90.0,
+            dlon_deg: POLE_ROWS_DEG,
+            dlat_deg: POLE_ROWS_DEG,
+        }
+    }
+
+    fn read_row(&self, row: usize, out: &mut [f32]) -> Result<(), globe::dem::DemError> {
+        let rows = self.grid().rows;
+        let base = if 2 * row < rows { -4290.0 } else { 2810.0 };
+        for (col, v) in out.iter_mut().enumerate() {
+            *v = if row == 0 || row == rows - 1 {
+                base
+            } else if (row + col).is_multiple_of(2) {
+                base + 500.0
+            } else {
+                base - 500.0
+            };
+        }
+        Ok(())
+    }
+
+    fn describe(&self) -> String {
+        "pole rows (ETOPO5-shaped)".into()
+    }
+}
+
+/// [`PoleRows`] as the terrain (no detail, no water: the bare bilinear field), built into a
+/// file of `test`'s own (tests run in parallel).
+fn pole_rows_terrain(test: &str) -> Terrain {
+    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("measure-tests");
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let path = dir.join(format!("pole-rows-{test}.globepyr"));
+    globe::dem::pyramid::PyramidBuilder::new()
+        .tile_size(64)
+        .build(&PoleRows, &path)
+        .expect("build the pole-rows pyramid");
+    let dem = globe::terrain::DemTerrain::open(&path, EARTH_RADIUS_M).expect("open");
+    Terrain::dem_terrain(dem)
+}
+
+/// The slope bound across a row of pixel centres on a pole is true and tight: at points up to
+/// two pixels from either pole, the terrain's change over a 1 m step in eight directions never
+/// exceeds the bound of a cap holding both ends, and comes within a factor 2 of it (the
+/// checkerboard next to the pole is as steep as the bound allows). A bound taken at the wrong
+/// latitude, or none, fails one or the other.
+#[test]
+fn pole_row_slope_bound_holds_and_is_tight() {
+    use globe::geo::sphere;
+    let terrain = pole_rows_terrain("slope");
+    let dem = terrain.dem().expect("a DEM");
+    let radius = terrain.radius_m();
+    let step_m = 1.0;
+    let mut worst = 0.0f64;
+    for pole in [90.0f64, -90.0] {
+        for i in 0..60 {
+            // Colatitudes from 1e-4 to 2 pixels, longitudes all round (off the columns).
+            let colat = 2.0 * POLE_ROWS_DEG * (i as f64 + 0.5) / 60.0 + 1e-4;
+            let lat = pole - colat * pole.signum();
+            let lon = 7.3 * i as f64 + 0.37;
+            let (phi, theta) = sphere::phi_theta_from_lat_lon_deg(lat, lon);
+            let u = sphere::unit_vector(phi, theta);
+            let cap = 2.0 * step_m / radius;
+            let bound = terrain.local_bounds(u, cap).slope_max;
+            assert!(bound.is_finite(), "no slope bound at {lat}°, {lon}°");
+            // Tangent directions at u.
+            let east = DVec3::Z.cross(u).try_normalize().unwrap_or(DVec3::X);
+            let north = u.cross(east);
+            for k in 0..8 {
+                let a = k as f64 * std::f64::consts::FRAC_PI_4;
+                let dir = east * a.cos() + north * a.sin();
+                let v = (u + dir * (step_m / radius)).normalize();
+                // atan2 of cross and dot: `angle_between`'s acos loses 0.4 % at 1 m.
+                let arc_m = u.cross(v).length().atan2(u.dot(v)) * radius;
+                let slope = (dem.height_m(v) - dem.height_m(u)).abs() / arc_m;
+                assert!(
+                    slope <= bound,
+                    "{lat}°, {lon}°: slope {slope} over {arc_m} m exceeds the bound {bound}"
+                );
+                worst = worst.max(slope / bound);
+            }
+        }
+    }
+    eprintln!("pole rows: steepest finite difference {worst:.3} of the bound");
+    assert!(worst > 0.5, "the bound is loose: {worst:.3}");
+}
+
+/// The reference at the pole of the ETOPO5-shaped field agrees with the brute-force march, on
+/// rays from 100 m above each pole (as `north-pole`) and straight down.
+#[test]
+fn ray_caster_matches_brute_force_on_a_pole_row() {
+    let terrain = pole_rows_terrain("brute-force");
+    for lat in [90.0, -90.0] {
+        let camera = Camera {
+            lat_deg: lat,
+            lon_deg: 0.0,
+            altitude_m: terrain.height_at_lat_lon_m(lat, 0.0) + 100.0,
+            heading_deg: 0.0,
+            pitch_deg: -30.0,
+            roll_deg: 0.0,
+            fov_y_deg: 60.0,
+        };
+        check_against_brute_force(&format!("pole row at {lat}°"), &terrain, &camera);
+    }
+}
+
+/// The field of [`PoleRows`] as the march saw it before the pole-row bound: no slope bound in
+/// a cap reaching a pole (the reference fell back to its smallest steps there).
+struct WithoutPoleBound<'a>(&'a Terrain);
+
+impl HeightField for WithoutPoleBound<'_> {
+    fn radius_m(&self) -> f64 {
+        self.0.radius_m()
+    }
+    fn height_m(&self, u: DVec3) -> f64 {
+        HeightField::height_m(self.0, u)
+    }
+    fn height_range_m(&self) -> (f64, f64) {
+        HeightField::height_range_m(self.0)
+    }
+    fn local_bounds(&self, u: DVec3, angle_rad: f64) -> globe::measure::LocalBounds {
+        let mut b = self.0.local_bounds(u, angle_rad);
+        let reach = angle_rad + (2.0 * POLE_ROWS_DEG).to_radians();
+        if u.z.abs().acos() <= reach {
+            b.slope_max = f64::INFINITY;
+        }
+        b
+    }
+    fn finest_bound_angle_rad(&self) -> f64 {
+        self.0.finest_bound_angle_rad()
+    }
+}
+
+/// The pole costs the reference about what a mid-latitude view costs, in march steps per pixel
+/// (not wall time): the `north-pole` pose over the ETOPO5-shaped field against the same pose at
+/// 45° N, within a factor 5 (the field is steepest next to the pole: 3 measured); without the
+/// pole-row bound the pole takes more than 100 times the mid-latitude steps (500 measured).
+#[test]
+fn the_pole_costs_about_what_mid_latitudes_cost() {
+    let terrain = pole_rows_terrain("steps");
+    let (w, h) = (64, 36);
+    let pose = |lat: f64| Camera {
+        lat_deg: lat,
+        lon_deg: 10.0,
+        altitude_m: terrain.height_at_lat_lon_m(lat, 10.0) + 100.0,
+        heading_deg: 0.0,
+        pitch_deg: -30.0,
+        roll_deg: 0.0,
+        fov_y_deg: 60.0,
+    };
+    let per_pixel = |field: &dyn HeightField, camera: &Camera| {
+        let image = RayCaster::new(field, camera, w, h).cast(&PixelSet::All);
+        assert!(image.terrain_count() > 0);
+        image.steps as f64 / image.cast_count() as f64
+    };
+    let mid = per_pixel(&terrain, &pose(45.0));
+    let pole = per_pixel(&terrain, &pose(90.0));
+    let south = per_pixel(&terrain, &pose(-90.0));
+    let unbounded = per_pixel(&WithoutPoleBound(&terrain), &pose(90.0));
+    eprintln!(
+        "march steps per pixel: 45° N {mid:.1}, North Pole {pole:.1}, South Pole {south:.1}; \
+         North Pole without the pole-row bound {unbounded:.1}"
+    );
+    assert!(
+        pole <= 5.0 * mid && south <= 5.0 * mid,
+        "{pole} / {south} vs {mid}"
+    );
+    assert!(unbounded > 100.0 * mid, "{unbounded} vs {mid}");
+}

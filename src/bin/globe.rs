@@ -1,5 +1,6 @@
 //! `globe`: the viewer, and its headless commands (`render`, `scenes`).
 
+use std::cell::RefCell;
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Instant;
@@ -80,6 +81,8 @@ struct ReportArgs {
     /// projgrid_tables.md.
     #[arg(long = "projgrid-tables")]
     projgrid_tables: bool,
+    #[command(flatten)]
+    measure_limit: MeasureArgs,
     /// The base settings every row varies one parameter of.
     #[command(flatten)]
     mesh: MeshArgs,
@@ -356,16 +359,19 @@ struct StreamArgs {
     /// Fraction of tile reads that fail, 0…1 (fault injection; failed reads are retried).
     #[arg(long = "tile-fail-rate", value_name = "F", default_value_t = 0.0)]
     tile_fail_rate: f64,
-    /// Budget of the decoded-tile cache in MiB.
+    /// Budget of the decoded-tile cache in MiB. The tiles the frame in progress needs (the
+    /// camera's ground, tiles on their way to the GPU) stay even beyond it: 0 keeps only those.
     #[arg(long = "cache-mb", value_name = "MIB", default_value_t = globe::stream::DEFAULT_CACHE_BYTES >> 20)]
     cache_mb: u64,
-    /// Tiles the GPU tile cache holds (256² × 2 bytes each).
+    /// Tiles the GPU tile cache holds (256² × 2 bytes each). A clipmap level is filled from
+    /// its tiles all resident at once: too few for a level of the view is an error naming the
+    /// smallest that works there.
     #[arg(long = "gpu-tiles", value_name = "N", default_value_t = StreamSettings::default().gpu_tiles)]
     gpu_tiles: u32,
-    /// Tiles uploaded to the GPU per frame at most.
+    /// Tiles uploaded to the GPU per frame at most (at least 1).
     #[arg(long = "uploads-per-frame", value_name = "N", default_value_t = StreamSettings::default().uploads_per_frame)]
     uploads_per_frame: u32,
-    /// Tile reads in flight at most.
+    /// Tile reads in flight at most (at least 1).
     #[arg(long = "max-in-flight", value_name = "N", default_value_t = StreamSettings::default().max_in_flight)]
     max_in_flight: usize,
 }
@@ -382,11 +388,20 @@ impl StreamArgs {
         if self.tile_fail_rate >= 1.0 {
             bail!("--tile-fail-rate 1 would fail every read: no tile could ever load");
         }
-        if self.gpu_tiles == 0 || self.uploads_per_frame == 0 || self.max_in_flight == 0 {
-            bail!("--gpu-tiles, --uploads-per-frame and --max-in-flight must be at least 1");
+        // The smallest --gpu-tiles that works depends on the view: the renderer names it on
+        // the view's first frames (`GpuTilesShort`). --cache-mb has none: the LRU keeps what
+        // the frame in progress needs even beyond its budget.
+        if self.max_in_flight == 0 {
+            bail!("--max-in-flight 0 would never read a tile: the smallest that works is 1");
+        }
+        if self.uploads_per_frame == 0 {
+            bail!(
+                "--uploads-per-frame 0 would never upload a tile to the GPU: the smallest that \
+                 works is 1"
+            );
         }
         Ok(StreamSettings {
-            cache_bytes: self.cache_mb << 20,
+            cache_bytes: self.cache_mb.saturating_mul(1 << 20),
             gpu_tiles: self.gpu_tiles,
             uploads_per_frame: self.uploads_per_frame,
             max_in_flight: self.max_in_flight,
@@ -404,6 +419,79 @@ impl StreamArgs {
         match self.tile_latency_ms.as_slice() {
             [one] => self.settings_with_latency(*one),
             _ => bail!("--tile-latency-ms takes one value here (a list only with `globe bench`)"),
+        }
+    }
+}
+
+/// How long measuring the error may take.
+#[derive(Args, Clone, Debug)]
+struct MeasureArgs {
+    /// Stop measuring the error after this many seconds, with a message saying how far the
+    /// reference ray cast got (0: no limit). At 1920×1080 on two CPU cores a named scene over
+    /// ETOPO5 takes seconds to a few minutes, `ground` (rays grazing the procedural detail)
+    /// far longer (README "Measuring time"); a progress line shows the time left.
+    #[arg(long = "measure-timeout", value_name = "SECONDS", default_value_t = DEFAULT_MEASURE_TIMEOUT_S)]
+    measure_timeout_s: f64,
+}
+
+/// `--measure-timeout`'s default: an hour, over ten times the slowest named scene but
+/// `ground` (README "Measuring time"); a crawl stops instead of hanging a report for hours.
+const DEFAULT_MEASURE_TIMEOUT_S: f64 = 3600.0;
+
+impl MeasureArgs {
+    fn limit(&self) -> anyhow::Result<Option<std::time::Duration>> {
+        let s = self.measure_timeout_s;
+        if !(s >= 0.0 && s.is_finite()) {
+            bail!("--measure-timeout must be 0 (no limit) or a number of seconds (got {s})");
+        }
+        Ok((s > 0.0).then(|| std::time::Duration::from_secs_f64(s)))
+    }
+
+    /// Names the flag when the reference ray cast stopped at its limit.
+    fn explain(&self, e: anyhow::Error) -> anyhow::Error {
+        let timed_out = e.chain().any(|c| {
+            matches!(
+                c.downcast_ref::<globe::measure::MeasureError>(),
+                Some(globe::measure::MeasureError::TimedOut { .. })
+            ) || matches!(
+                c.downcast_ref::<globe::bench::BenchError>(),
+                Some(globe::bench::BenchError::Measure(
+                    globe::measure::MeasureError::TimedOut { .. }
+                ))
+            )
+        });
+        if timed_out {
+            e.context(format!(
+                "measuring the error stopped at --measure-timeout {} s: raise it (0: no \
+                 limit), or measure fewer pixels (--width/--height; `globe report --every N`)",
+                self.measure_timeout_s
+            ))
+        } else {
+            e
+        }
+    }
+}
+
+/// The progress line of a reference ray cast, shown from its first report on.
+#[derive(Default)]
+struct MeasureProgress(Option<Progress>);
+
+impl MeasureProgress {
+    fn update(&mut self, done: usize, total: usize) {
+        self.0
+            .get_or_insert_with(|| {
+                Progress::new(
+                    "measuring the error (reference ray cast)",
+                    total as u64,
+                    Some("px"),
+                )
+            })
+            .set(done as u64);
+    }
+
+    fn finish(self) {
+        if let Some(p) = self.0 {
+            p.finish();
         }
     }
 }
@@ -449,6 +537,8 @@ struct BenchArgs {
     /// reference ray caster's coverage: seconds per megapixel on the CPU).
     #[arg(long = "no-error")]
     no_error: bool,
+    #[command(flatten)]
+    measure_limit: MeasureArgs,
     /// Print one JSON object per run on stdout (one line each) instead of a summary.
     #[arg(long)]
     json: bool,
@@ -520,10 +610,16 @@ struct RenderArgs {
     /// Render with whatever tiles have arrived instead of waiting for streaming to settle.
     #[arg(long = "no-wait")]
     no_wait: bool,
+    /// Wait at most this many seconds for streaming to settle; past it, stop with what the
+    /// view was still waiting for.
+    #[arg(long = "settle-timeout", value_name = "SECONDS", default_value_t = globe::render::offscreen::SETTLE_TIMEOUT.as_secs_f64())]
+    settle_timeout_s: f64,
     /// Print the frame's error: ρ statistics against the terrain function and coverage
     /// mismatches against the reference ray caster (slow: seconds per megapixel).
     #[arg(long)]
     measure: bool,
+    #[command(flatten)]
+    measure_limit: MeasureArgs,
     #[command(flatten)]
     mesh: MeshArgs,
     #[command(flatten)]
@@ -610,12 +706,17 @@ fn render(args: &RenderArgs) -> anyhow::Result<ExitCode> {
     }
     let settings = args.mesh.settings()?;
     let lod = args.lod.settings()?;
+    let stream = args.stream.settings()?;
+    let measure_limit = args.measure_limit.limit()?;
+    let settle_timeout = match args.settle_timeout_s {
+        s if s >= 0.0 && s.is_finite() => std::time::Duration::from_secs_f64(s),
+        s => bail!("--settle-timeout must be a number of seconds (got {s})"),
+    };
     let started = Instant::now();
     let ctx = GpuContext::headless().context("cannot render without a graphics adapter")?;
     eprintln!("adapter: {}", ctx.adapter_description());
     let terrain = args.dem.open()?;
     eprintln!("terrain: {}", terrain.describe());
-    let stream = args.stream.settings()?;
     let mut renderer =
         TerrainRenderer::with_streaming(&ctx.device, settings, terrain, COLOR_FORMAT, stream)?;
     renderer.overlays.levels = args.overlay == Some(Overlay::Levels);
@@ -627,19 +728,31 @@ fn render(args: &RenderArgs) -> anyhow::Result<ExitCode> {
     let mut frame = if args.no_wait {
         target.render_now(&ctx, &mut renderer, &camera)?
     } else {
-        target.render(&ctx, &mut renderer, &camera)?
+        target.render_settled_within(&ctx, &mut renderer, &camera, settle_timeout)?
     };
     if args.measure {
-        let e = globe::measure::evaluate(&frame, &camera, &renderer.terrain, true)?;
+        let mut progress = MeasureProgress::default();
+        let measured = globe::measure::evaluate_within(
+            &frame,
+            &camera,
+            &renderer.terrain,
+            measure_limit,
+            |done, total| progress.update(done, total),
+        )
+        .map_err(|e| args.measure_limit.explain(e.into()))?;
+        progress.finish();
+        let e = measured;
+        let coverage = e.coverage.unwrap_or_default();
         eprintln!(
-            "error: mean ρ {:.3} px, p99 {:.3} px, max {:.3} px over {} terrain px; {:.3} % above {} px; coverage mismatches {} px",
+            "error: mean ρ {:.3} px, p99 {:.3} px, max {:.3} px over {} terrain px; {:.3} % above {} px; coverage mismatches {} px (reference: {:.1} march steps per pixel)",
             e.mean_px,
             e.p99_px,
             e.max_px,
             e.pixels_measured,
             100.0 * e.error_pixel_share,
             e.threshold_px,
-            e.coverage.map_or(0, |c| c.mismatched())
+            coverage.mismatched(),
+            coverage.reference_steps as f64 / coverage.compared.max(1) as f64
         );
     }
     if args.overlay == Some(Overlay::Error) {
@@ -760,6 +873,7 @@ fn bench(args: &BenchArgs) -> anyhow::Result<ExitCode> {
         bail!("--frames must be at least 1");
     }
     let settings = args.mesh.settings()?;
+    let measure_limit = args.measure_limit.limit()?;
     let ctx = GpuContext::headless().context("cannot benchmark without a graphics adapter")?;
     let adapter = ctx.adapter_description();
     eprintln!("adapter: {adapter}");
@@ -791,11 +905,34 @@ fn bench(args: &BenchArgs) -> anyhow::Result<ExitCode> {
             },
         };
         let label = format!("{name} (latency {latency} ms)");
-        let mut progress = Progress::new(label, args.frames as u64, Some("frames"));
-        let run = globe::bench::run(&ctx, &terrain, &options, |done, _| {
-            progress.set(done as u64)
-        })?;
-        progress.finish();
+        let progress = RefCell::new(Some(Progress::new(
+            label,
+            args.frames as u64,
+            Some("frames"),
+        )));
+        let mut measuring = MeasureProgress::default();
+        let mut on_measure = |done, total| {
+            // The frames are done once the measurement starts.
+            if let Some(p) = progress.borrow_mut().take() {
+                p.finish();
+            }
+            measuring.update(done, total)
+        };
+        let watch = globe::bench::MeasureWatch {
+            limit: measure_limit,
+            progress: &mut on_measure,
+        };
+        let on_frame = |done: usize, _| {
+            if let Some(p) = progress.borrow_mut().as_mut() {
+                p.set(done as u64)
+            }
+        };
+        let run = globe::bench::run_with(&ctx, &terrain, &options, on_frame, watch)
+            .map_err(|e| args.measure_limit.explain(e.into()))?;
+        if let Some(p) = progress.take() {
+            p.finish();
+        }
+        measuring.finish();
         if let Some(path) = &args.csv {
             let path = if args.stream.tile_latency_ms.len() > 1 {
                 let stem = path.file_stem().unwrap_or_default().to_string_lossy();
@@ -960,6 +1097,7 @@ fn report(args: &ReportArgs) -> anyhow::Result<ExitCode> {
     if args.frames == 0 || args.width == 0 || args.height == 0 {
         bail!("--frames, --width and --height must be at least 1");
     }
+    let measure_limit = args.measure_limit.limit()?;
     let ctx = GpuContext::headless().context("cannot run the report without a graphics adapter")?;
     let adapter = ctx.adapter_description();
     eprintln!("adapter: {adapter}");
@@ -980,11 +1118,19 @@ fn report(args: &ReportArgs) -> anyhow::Result<ExitCode> {
     };
     let started = Instant::now();
     let mut progress = None;
-    let rows = globe::report::run(&ctx, &terrain, &options, |step| {
-        progress
-            .get_or_insert_with(|| Progress::new("report", step.total as u64, Some("steps")))
-            .step(step.index as u64, step.message.as_str())
-    })?;
+    let rows = globe::report::run_within(&ctx, &terrain, &options, measure_limit, |step| {
+        let p = progress
+            .get_or_insert_with(|| Progress::new("report", step.total as u64, Some("steps")));
+        match step.pixels {
+            Some((done, all)) => p.note(format!(
+                "{} ({:.0} % of {all} px)",
+                step.message,
+                100.0 * done as f64 / all.max(1) as f64
+            )),
+            None => p.step(step.index as u64, step.message.as_str()),
+        }
+    })
+    .map_err(|e| args.measure_limit.explain(e.into()))?;
     if let Some(p) = progress {
         p.finish();
     }

@@ -147,6 +147,9 @@ pub struct Coverage {
     pub terrain_where_reference_sky: usize,
     /// Rendered sky where the reference sees terrain.
     pub sky_where_reference_terrain: usize,
+    /// March steps the reference took ([`ReferenceImage::steps`]): its cost, free of the
+    /// machine's speed.
+    pub reference_steps: u64,
 }
 
 impl Coverage {
@@ -165,7 +168,10 @@ impl Coverage {
                 expected_h: frame.height,
             });
         }
-        let mut c = Coverage::default();
+        let mut c = Coverage {
+            reference_steps: reference.steps,
+            ..Coverage::default()
+        };
         for (reference, depth) in reference.pixels.iter().zip(&frame.depth) {
             let rendered_terrain = *depth > 0.0;
             match reference {
@@ -378,6 +384,21 @@ pub fn evaluate(
         reference.as_ref(),
         DEFAULT_THRESHOLD_PX,
     )
+}
+
+/// [`evaluate`] with the reference, cast within `time_limit` (None: none; past it,
+/// [`MeasureError::TimedOut`]) and reporting `progress(pixels cast, pixels)` as it goes: a
+/// measurement that would take hours says so instead of hanging.
+pub fn evaluate_within(
+    frame: &RenderedFrame,
+    camera: &Camera,
+    field: &(impl HeightField + ?Sized),
+    time_limit: Option<std::time::Duration>,
+    progress: impl FnMut(usize, usize),
+) -> Result<ErrorStats, MeasureError> {
+    let reference = super::reference::RayCaster::new(field, camera, frame.width, frame.height)
+        .cast_within(&super::reference::PixelSet::All, time_limit, progress)?;
+    measure_frame(frame, camera, field, Some(&reference), DEFAULT_THRESHOLD_PX)
 }
 
 #[cfg(test)]

@@ -24,11 +24,12 @@ pub mod reference;
 
 pub use metric::{
     Coverage, DEFAULT_THRESHOLD_PX, ERROR_OVERLAY_OPACITY, ErrorStats, PixelError, evaluate,
-    heat_rgb, measure_frame, overlay_heat, pixel_error, rho_image, write_heat_map_png,
+    evaluate_within, heat_rgb, measure_frame, overlay_heat, pixel_error, rho_image,
+    write_heat_map_png,
 };
 pub use reference::{
-    ConstantHeight, HeightField, LocalBounds, PixelSet, RayCastOptions, RayCaster, RayHit,
-    ReferenceImage, ReferencePixel,
+    ConstantHeight, HeightField, LocalBounds, PROGRESS_INTERVAL, PixelSet, RayCastOptions,
+    RayCaster, RayHit, ReferenceImage, ReferencePixel,
 };
 
 /// Errors of the measurements.
@@ -52,6 +53,16 @@ pub enum MeasureError {
     Write {
         path: std::path::PathBuf,
         source: std::io::Error,
+    },
+    /// The reference ray cast ran past its time limit ([`RayCaster::cast_within`]).
+    #[error(
+        "the reference ray cast reached its time limit of {limit_s} s with {done} of {total} pixels cast ({:.1} %)",
+        100.0 * *done as f64 / (*total).max(1) as f64
+    )]
+    TimedOut {
+        limit_s: f64,
+        done: usize,
+        total: usize,
     },
     /// `plotters` failed to draw (its error is generic over the backend, hence boxed).
     #[error("drawing the plot: {0}")]

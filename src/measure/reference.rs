@@ -40,18 +40,25 @@
 //! for the analytic planet (L ≈ 1.85); for the embedded Earth L comes from the min/max planes
 //! around the point: 0.16 px over the Alps (L ≈ 0.25), 0.2 px at the steepest 10′ relief
 //! (Everest 0.4, the Mariana trench 0.58), but within a few pixels of a pole, where the
-//! lat/lon cells narrow to metres, L ≈ 50 and the height bound is several pixels. Where L is
-//! unknown (+∞: a regional DEM's edge, a grid row on a pole) only the length bound holds.
+//! lat/lon cells narrow to metres, L ≈ 50 and the height bound is several pixels (ETOPO5's row
+//! of pixel centres on each pole holds one value, so its terrain is continuous there and L is
+//! bounded as next to the pole: `dem_bounds`). Where L is unknown (+∞: a regional DEM's edge,
+//! a pole row of differing values) only the length bound holds, and the march falls back to
+//! its minimum steps.
 //!
 //! With the eye inside the terrain (f(0) ≤ 0) every ray hits at distance 0.
 
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
+use std::sync::mpsc;
+use std::time::{Duration, Instant};
 
 use glam::{DMat3, DVec3};
 
+use super::MeasureError;
 use crate::dem::pyramid::Region;
 use crate::geo::camera::{Camera, pixel_ray_view};
 use crate::geo::sphere;
+use crate::terrain::dem::PoleEnd;
 use crate::terrain::{AnalyticPlanet, Base, DemTerrain, Terrain};
 
 /// Largest cap the march asks bounds for (≈ 320 km on Earth): larger caps over real relief
@@ -66,6 +73,8 @@ const SHELL_MARGIN_M: f64 = 1.0;
 const BISECTION_STEPS_MAX: usize = 200;
 /// Regula falsi steps before plain bisection takes over (it needs 4–8 on smooth terrain).
 const ILLINOIS_STEPS_MAX: usize = 40;
+/// How often a long cast reports its progress (and checks its time limit).
+pub const PROGRESS_INTERVAL: Duration = Duration::from_millis(200);
 
 /// Conservative bounds of a height field over a cap.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -205,13 +214,16 @@ fn tighten(b: LocalBounds, centre_m: f64, radius_m: f64) -> LocalBounds {
 }
 
 /// Bounds of max(h, water) from those of h: min and max raised to the water level; the slope
-/// bound holds unchanged (max of a field and a constant is no steeper than the field).
+/// bound holds unchanged (max of a field and a constant is no steeper than the field), and is
+/// 0 where the whole cap lies under water (the surface is the flat sea there, whatever the
+/// ground below: the open sea near a pole needs no slope bound of the sea floor).
 fn with_water_bounds(b: LocalBounds, water_level_m: Option<f64>) -> LocalBounds {
     let (min_m, max_m) = crate::terrain::bounds_with_water((b.min_m, b.max_m), water_level_m);
+    let under_water = water_level_m.is_some_and(|w| b.max_m <= w);
     LocalBounds {
         min_m,
         max_m,
-        slope_max: b.slope_max,
+        slope_max: if under_water { 0.0 } else { b.slope_max },
     }
 }
 
@@ -244,9 +256,17 @@ fn analytic_bounds(p: &AnalyticPlanet, u_world: DVec3, angle_rad: f64) -> LocalB
 /// The terrain is bilinear in (lat, lon) between pixel centres, so within a cell each partial
 /// derivative is a convex combination of corner differences, each at most max − min: the
 /// slope is at most (max − min)/R · hypot(1/Δlat, 1/(cos lat·Δlon)) with the highest latitude
-/// of the cells. Between the outermost row and a pole the terrain blends linearly over the gap
-/// to the row's mean (`PoleCap`): there Δlat becomes the gap, and the cap is widened to
-/// reach the pole so that the bounds hold for that mean too.
+/// of the cells. Towards a pole ([`PoleEnd`]):
+///
+/// - a [`PoleEnd::Cap`] (the outermost row short of the pole, blended linearly over the gap
+///   to the row's mean): there Δlat becomes the gap, and the cap is widened to reach the pole
+///   so that the bounds hold for that mean too; cos lat ≥ cos(row lat) as below.
+/// - a [`PoleEnd::ConstantRow`] (ETOPO5): between the pole row's value c and the next row's
+///   bilinear g(lon), at colatitude x ≤ Δlat, h = c + (x/Δlat)·(g − c). Its gradient is
+///   (g − c)/(R·Δlat) along the meridian and (x/Δlat)·g′/(R·sin x) across it; x/sin x grows
+///   with x, so (x/Δlat)/sin x ≤ 1/sin Δlat = 1/cos(next row's latitude). The formula holds
+///   with that latitude as the highest, and the cap, reaching the pole, reads both rows.
+/// - [`PoleEnd::Open`]: no bound.
 fn dem_bounds(d: &DemTerrain, u_world: DVec3, angle_rad: f64) -> LocalBounds {
     let pyramid = d.pyramid();
     let g = pyramid.grid(0);
@@ -254,15 +274,19 @@ fn dem_bounds(d: &DemTerrain, u_world: DVec3, angle_rad: f64) -> LocalBounds {
     let (lat_deg, lon_deg) = sphere::lat_lon_deg_from_phi_theta(phi, theta);
     let diagonal_deg = g.dlat_deg.hypot(g.dlon_deg);
     let mut radius_deg = angle_rad.to_degrees() + diagonal_deg;
-    let outer_row_lat_deg = g
-        .lat0_deg
-        .abs()
-        .max(g.lat_of_row((g.rows - 1) as f64).abs());
-    let pole_gap_deg = 90.0 - outer_row_lat_deg;
-    let has_pole_caps = pyramid.wraps() && pole_gap_deg > 0.0 && pole_gap_deg <= g.dlat_deg;
-    let reaches_past_rows = lat_deg.abs() + radius_deg > outer_row_lat_deg;
-    if has_pole_caps && reaches_past_rows {
-        radius_deg = radius_deg.max(90.0 - lat_deg.abs() + diagonal_deg);
+    // Per pole (north, south): the outermost row's |latitude| and how the terrain ends there.
+    let rows_lat_deg = [g.lat0_deg, -g.lat_of_row((g.rows - 1) as f64)];
+    let ends = d.pole_ends();
+    // The cap's extent towards each pole, as a latitude on that side (beyond 90: past it).
+    let extent_deg = |radius: f64| [lat_deg + radius, radius - lat_deg];
+    let reaches = |radius: f64| {
+        let e = extent_deg(radius);
+        [e[0] > rows_lat_deg[0], e[1] > rows_lat_deg[1]]
+    };
+    for (pole, reached) in reaches(radius_deg).into_iter().enumerate() {
+        if reached && matches!(ends[pole], PoleEnd::Cap(_)) {
+            radius_deg = radius_deg.max(90.0 - extent_deg(0.0)[pole] + diagonal_deg);
+        }
     }
     let level = pyramid.level_for_spacing(radius_deg / 4.0);
     let region = Region::Cap {
@@ -286,20 +310,33 @@ fn dem_bounds(d: &DemTerrain, u_world: DVec3, angle_rad: f64) -> LocalBounds {
             slope_max: f64::INFINITY,
         };
     }
-    let (dlat_deg, top_lat_deg) = if reaches_past_rows {
-        if !has_pole_caps {
-            // A row of pixel centres on a pole (or a grid ending short of it): no bound.
-            return LocalBounds {
-                min_m: b.min_m,
-                max_m: b.max_m,
-                slope_max: f64::INFINITY,
-            };
-        }
-        // In the blend zone (1 − t)/cos lat ≤ 1/cos(row lat) (to 1e-6 for a gap ≤ 1°).
-        (g.dlat_deg.min(pole_gap_deg), outer_row_lat_deg)
-    } else {
-        (g.dlat_deg, lat_deg.abs() + radius_deg)
-    };
+    // The highest latitude the formula needs on each side, and Δlat (a pole cap's gap).
+    let mut dlat_deg = g.dlat_deg;
+    let mut top_lat_deg = 0.0f64;
+    let extent = extent_deg(radius_deg);
+    for (pole, reached) in reaches(radius_deg).into_iter().enumerate() {
+        let top = if !reached {
+            extent[pole]
+        } else {
+            match ends[pole] {
+                PoleEnd::Cap(c) => {
+                    // In the blend zone (1 − t)/cos lat ≤ 1/cos(row lat) (to 1e-6 for a gap ≤ 1°).
+                    dlat_deg = dlat_deg.min(90.0 - rows_lat_deg[pole]);
+                    c.row_lat_deg.abs()
+                }
+                PoleEnd::ConstantRow { .. } => 90.0 - g.dlat_deg,
+                PoleEnd::Open => {
+                    // A grid ending short of a pole, or a pole row of differing values.
+                    return LocalBounds {
+                        min_m: b.min_m,
+                        max_m: b.max_m,
+                        slope_max: f64::INFINITY,
+                    };
+                }
+            }
+        };
+        top_lat_deg = top_lat_deg.max(top);
+    }
     let cos_top = top_lat_deg.to_radians().cos();
     let r = d.radius_m();
     let slope_max = 1.000_01 * (b.max_m - b.min_m) / r
@@ -432,6 +469,8 @@ pub struct ReferenceImage {
     pub width: u32,
     pub height: u32,
     pub pixels: Vec<ReferencePixel>,
+    /// March steps of the whole cast ([`RayCaster::cast_ray_counted`]).
+    pub steps: u64,
 }
 
 impl ReferenceImage {
@@ -531,19 +570,43 @@ impl<'a, H: HeightField + ?Sized> RayCaster<'a, H> {
 
     /// The first hit along `direction_view` (normalised here) from the eye.
     pub fn cast_ray(&self, direction_view: DVec3) -> RayHit {
+        self.cast_ray_counted(direction_view).0
+    }
+
+    /// [`RayCaster::cast_ray`] and the march steps it took: the loop's iterations and the
+    /// refinement's, each one terrain evaluation or bounds query (the march's cost, free of
+    /// the machine's speed).
+    pub fn cast_ray_counted(&self, direction_view: DVec3) -> (RayHit, u64) {
         let d = direction_view.normalize();
         let pixels_per_rad = self.pixels_per_radian_along(d);
-        match self.march(d, pixels_per_rad) {
+        let mut steps = 0;
+        let hit = match self.march(d, pixels_per_rad, &mut steps) {
             Some(distance_m) => RayHit::Terrain {
                 distance_m,
                 point_view_m: self.eye_view_m + distance_m * d,
             },
             None => RayHit::Sky,
-        }
+        };
+        (hit, steps)
     }
 
     /// Casts `pixels` on [`RayCastOptions::threads`] threads; results in the same order.
     pub fn cast_pixels(&self, pixels: &[(u32, u32)]) -> Vec<RayHit> {
+        match self.cast_pixels_watched(pixels, None, &mut |_, _| {}) {
+            Ok((hits, _)) => hits,
+            Err(_) => unreachable!("a cast without a time limit runs to the end"),
+        }
+    }
+
+    /// [`RayCaster::cast_pixels`] with the march steps in all, `progress(pixels done, pixels)`
+    /// called on this thread about every [`PROGRESS_INTERVAL`], and a time limit: past
+    /// `deadline` the workers stop and the pixels done so far are returned as the error.
+    fn cast_pixels_watched(
+        &self,
+        pixels: &[(u32, u32)],
+        deadline: Option<Instant>,
+        progress: &mut dyn FnMut(usize, usize),
+    ) -> Result<(Vec<RayHit>, u64), usize> {
         // A chunk of a row at 1080p: small enough to balance two cores over a horizon band.
         const CHUNK: usize = 256;
         let threads = match self.options.threads {
@@ -551,28 +614,76 @@ impl<'a, H: HeightField + ?Sized> RayCaster<'a, H> {
             n => n,
         };
         let next = AtomicUsize::new(0);
+        let done = AtomicUsize::new(0);
+        let stop = AtomicBool::new(false);
+        let steps = AtomicU64::new(0);
+        let (finished, results) = mpsc::channel::<Vec<(usize, Vec<RayHit>)>>();
         let work = || {
-            let mut done = Vec::new();
+            let mut out = Vec::new();
             loop {
                 let chunk = next.fetch_add(1, Ordering::Relaxed);
                 let start = chunk * CHUNK;
-                if start >= pixels.len() {
-                    return done;
+                if start >= pixels.len() || stop.load(Ordering::Relaxed) {
+                    break;
                 }
                 let part = &pixels[start..(start + CHUNK).min(pixels.len())];
-                let hits: Vec<RayHit> = part.iter().map(|&(x, y)| self.cast_pixel(x, y)).collect();
-                done.push((chunk, hits));
+                let mut hits = Vec::with_capacity(part.len());
+                let mut chunk_steps = 0;
+                for &(x, y) in part {
+                    // Checked per pixel: one pixel costs at most milliseconds, a chunk more.
+                    if stop.load(Ordering::Relaxed) || deadline.is_some_and(|d| Instant::now() >= d)
+                    {
+                        stop.store(true, Ordering::Relaxed);
+                        break;
+                    }
+                    let (hit, n) = self.cast_ray_counted(self.pixel_ray_view(x, y));
+                    hits.push(hit);
+                    chunk_steps += n;
+                }
+                steps.fetch_add(chunk_steps, Ordering::Relaxed);
+                done.fetch_add(hits.len(), Ordering::Relaxed);
+                out.push((chunk, hits));
             }
+            // The receiver outlives the workers (same scope).
+            let _ = finished.send(out);
         };
+        let workers = threads.max(1);
+        // Told at once, so that a display's clock starts with the cast.
+        progress(0, pixels.len());
         let mut chunks: Vec<(usize, Vec<RayHit>)> = std::thread::scope(|s| {
-            let workers: Vec<_> = (0..threads.max(1)).map(|_| s.spawn(work)).collect();
-            workers
-                .into_iter()
-                .flat_map(|w| w.join().unwrap_or_else(|p| std::panic::resume_unwind(p)))
-                .collect()
+            let handles: Vec<_> = (0..workers).map(|_| s.spawn(work)).collect();
+            // This thread watches: progress, the deadline; the workers send when they end.
+            let mut all = Vec::new();
+            let mut ended = 0;
+            while ended < workers {
+                match results.recv_timeout(PROGRESS_INTERVAL) {
+                    Ok(out) => {
+                        all.extend(out);
+                        ended += 1;
+                    }
+                    // A worker panicked (its sender dropped unsent): join re-raises it below.
+                    Err(mpsc::RecvTimeoutError::Disconnected) => break,
+                    Err(mpsc::RecvTimeoutError::Timeout) => {}
+                }
+                if deadline.is_some_and(|d| Instant::now() >= d) {
+                    stop.store(true, Ordering::Relaxed);
+                }
+                progress(done.load(Ordering::Relaxed), pixels.len());
+            }
+            for h in handles {
+                if let Err(p) = h.join() {
+                    std::panic::resume_unwind(p);
+                }
+            }
+            all
         });
+        let done = done.load(Ordering::Relaxed);
+        if done < pixels.len() {
+            return Err(done);
+        }
         chunks.sort_by_key(|(chunk, _)| *chunk);
-        chunks.into_iter().flat_map(|(_, hits)| hits).collect()
+        let hits = chunks.into_iter().flat_map(|(_, hits)| hits).collect();
+        Ok((hits, steps.load(Ordering::Relaxed)))
     }
 
     /// The reference image of `set` (pixels outside it are [`ReferencePixel::NotCast`]).
@@ -580,6 +691,24 @@ impl<'a, H: HeightField + ?Sized> RayCaster<'a, H> {
     /// # Panics
     /// If a listed pixel lies outside the viewport.
     pub fn cast(&self, set: &PixelSet) -> ReferenceImage {
+        match self.cast_within(set, None, |_, _| {}) {
+            Ok(image) => image,
+            Err(_) => unreachable!("a cast without a time limit runs to the end"),
+        }
+    }
+
+    /// [`RayCaster::cast`] within `time_limit` (None: none), reporting `progress(pixels
+    /// done, pixels)` about every [`PROGRESS_INTERVAL`] on this thread. A cast still running at
+    /// the limit stops and is [`MeasureError::TimedOut`].
+    ///
+    /// # Panics
+    /// If a listed pixel lies outside the viewport.
+    pub fn cast_within(
+        &self,
+        set: &PixelSet,
+        time_limit: Option<Duration>,
+        mut progress: impl FnMut(usize, usize),
+    ) -> Result<ReferenceImage, MeasureError> {
         let list = set.pixels(self.width, self.height);
         if let Some((x, y)) = list
             .iter()
@@ -590,7 +719,15 @@ impl<'a, H: HeightField + ?Sized> RayCaster<'a, H> {
                 self.width, self.height
             );
         }
-        let hits = self.cast_pixels(&list);
+        let started = Instant::now();
+        let deadline = time_limit.map(|limit| started + limit);
+        let (hits, steps) = self
+            .cast_pixels_watched(&list, deadline, &mut progress)
+            .map_err(|done| MeasureError::TimedOut {
+                limit_s: time_limit.map_or(0.0, |l| l.as_secs_f64()),
+                done,
+                total: list.len(),
+            })?;
         let mut pixels = vec![ReferencePixel::NotCast; self.width as usize * self.height as usize];
         for (&(x, y), hit) in list.iter().zip(hits) {
             pixels[(y * self.width + x) as usize] = match hit {
@@ -598,11 +735,12 @@ impl<'a, H: HeightField + ?Sized> RayCaster<'a, H> {
                 RayHit::Terrain { distance_m, .. } => ReferencePixel::Terrain { distance_m },
             };
         }
-        ReferenceImage {
+        Ok(ReferenceImage {
             width: self.width,
             height: self.height,
             pixels,
-        }
+            steps,
+        })
     }
 
     /// Clearance of view-space point `p` above the terrain: |p| − R − h(p/|p|).
@@ -616,7 +754,7 @@ impl<'a, H: HeightField + ?Sized> RayCaster<'a, H> {
 
     /// The distance to the first crossing along the unit ray `d`, or None (sky). See the
     /// module documentation for the steps and the guarantee.
-    fn march(&self, d: DVec3, pixels_per_rad: f64) -> Option<f64> {
+    fn march(&self, d: DVec3, pixels_per_rad: f64, steps: &mut u64) -> Option<f64> {
         let e = self.eye_view_m;
         if self.clearance_m(e) <= 0.0 {
             return Some(0.0);
@@ -639,6 +777,7 @@ impl<'a, H: HeightField + ?Sized> RayCaster<'a, H> {
         let mut alpha = CAP_START_RAD;
         let mut cap: Option<Cap> = None;
         loop {
+            *steps += 1;
             if t >= t_end {
                 return t_floor.map(|_| t_end);
             }
@@ -704,7 +843,7 @@ impl<'a, H: HeightField + ?Sized> RayCaster<'a, H> {
             let t_next = (t + safe.max(s_min(t))).min(t_end);
             let f_next = self.clearance_m(e + t_next * d);
             if f_next <= 0.0 {
-                return Some(self.refine(d, (t, f), (t_next, f_next), pixels_per_rad));
+                return Some(self.refine(d, (t, f), (t_next, f_next), pixels_per_rad, steps));
             }
             t = t_next;
             if t >= c.end_t {
@@ -723,10 +862,12 @@ impl<'a, H: HeightField + ?Sized> RayCaster<'a, H> {
         (mut a, mut f_a): (f64, f64),
         (mut b, mut f_b): (f64, f64),
         pixels_per_rad: f64,
+        steps: &mut u64,
     ) -> f64 {
         let e = self.eye_view_m;
         let mut last_side = 0i8;
         for step in 0..BISECTION_STEPS_MAX {
+            *steps += 1;
             let tolerance_m = (self.options.refine_px * b / pixels_per_rad)
                 .max(4.0 * f64::EPSILON * (e.length() + b));
             if b - a <= tolerance_m {

@@ -62,6 +62,8 @@ pub struct RoughnessMap {
     /// Largest |∇relief| (metres per metre) between row r and r + 1, for each r (the slope
     /// bound of the amplitude; rows near the poles are narrow east–west).
     row_slope: Vec<f64>,
+    /// Lowest and highest relief of each row (a cap reaching a pole spans whole rows).
+    row_range: Vec<(f64, f64)>,
     radius_m: f64,
 }
 
@@ -120,11 +122,19 @@ impl RoughnessMap {
                 worst * std::f64::consts::SQRT_2 / radius_m
             })
             .collect();
+        let row_range = (0..rows)
+            .map(|r| {
+                (0..cols).fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), c| {
+                    (lo.min(at(r, c)), hi.max(at(r, c)))
+                })
+            })
+            .collect();
         Self {
             cols,
             rows,
             values,
             row_slope,
+            row_range,
             radius_m,
         }
     }
@@ -171,8 +181,9 @@ impl RoughnessMap {
             ((angle_rad / sin_min) / dphi).ceil() as i64 + 1
         };
         let c0 = (phi.rem_euclid(TAU) / dphi).floor() as i64;
-        let columns: Vec<i64> = if 2 * span + 1 >= self.cols as i64 {
-            (0..self.cols as i64).collect()
+        let every_column = 2 * span + 1 >= self.cols as i64;
+        let columns: Vec<i64> = if every_column {
+            Vec::new()
         } else {
             (c0 - span..=c0 + span).collect()
         };
@@ -181,6 +192,12 @@ impl RoughnessMap {
         let mut slope = 0f64;
         for r in r_lo..=r_hi {
             slope = slope.max(self.row_slope[r as usize]);
+            if every_column {
+                let (lo, hi) = self.row_range[r as usize];
+                relief_min = relief_min.min(lo);
+                relief = relief.max(hi);
+                continue;
+            }
             for &c in &columns {
                 relief = relief.max(self.at(r, c));
                 relief_min = relief_min.min(self.at(r, c));

@@ -8,7 +8,7 @@
 //! bound the terrain) until the finer tiles arrive.
 
 use std::cell::RefCell;
-use std::collections::{HashMap, VecDeque};
+use std::collections::{HashMap, HashSet, VecDeque};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
@@ -52,9 +52,39 @@ pub struct FeedFrame {
     pub gpu_bytes_uploaded: u64,
     /// True when every needed tile is on the GPU and every wanted level was filled.
     pub complete: bool,
+    /// A level that needs more tiles at once than the GPU tile cache holds (`--gpu-tiles`):
+    /// it can never be filled, and the view never completes.
+    pub gpu_tiles_short: Option<GpuTilesShort>,
     pub last_error: Option<String>,
     /// Bytes read from the source per second, over the last half second or more.
     pub read_mb_per_s: f64,
+}
+
+/// The GPU tile cache is too small for a level of the view: a level is filled from its tiles
+/// all resident at once.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct GpuTilesShort {
+    /// Tiles asked for (`--gpu-tiles`).
+    pub asked: u32,
+    /// Slots of the GPU tile cache: those asked for, within the device's limit.
+    pub capacity: u32,
+    /// The most tiles one wanted level reads: the smallest cache that fills every level.
+    pub needed: u32,
+}
+
+impl std::fmt::Display for GpuTilesShort {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "--gpu-tiles {} cannot hold the {} tiles one clipmap level of this view reads at \
+             once; the smallest that works for this view is --gpu-tiles {}",
+            self.asked, self.needed, self.needed
+        )?;
+        if self.asked > self.capacity {
+            write!(f, " (this device holds at most {} tiles)", self.capacity)?;
+        }
+        Ok(())
+    }
 }
 
 /// The DEM's streaming pipeline, owned by the terrain renderer.
@@ -73,6 +103,12 @@ pub struct DemFeed {
     fell_back: std::cell::Cell<bool>,
     /// Tiles the CPU queries read since the last update (promoted in the LRU there).
     touched: RefCell<Vec<TileKey>>,
+    /// Tiles the camera's ground read or missed since the last update: the LRU keeps them,
+    /// whatever its budget (a frame does not settle on a stand-in height).
+    critical: RefCell<HashSet<TileKey>>,
+    /// What the LRU keeps beyond its budget until the next update: the last frame's critical
+    /// tiles and its level tiles not yet on the GPU.
+    keep: HashSet<TileKey>,
     errors: VecDeque<String>,
     pub last: FeedFrame,
     /// (when, bytes read then) of the last rate sample.
@@ -118,6 +154,8 @@ impl DemFeed {
             aux_missing: RefCell::new(HashMap::new()),
             fell_back: std::cell::Cell::new(false),
             touched: RefCell::new(Vec::new()),
+            critical: RefCell::new(HashSet::new()),
+            keep: HashSet::new(),
             errors: VecDeque::new(),
             last: FeedFrame::default(),
             rate_sample: (Instant::now(), 0),
@@ -159,6 +197,9 @@ impl DemFeed {
         let t = self.dem.pyramid().tile_size();
         let code = |level: usize, p: Plane, row: usize, col: usize| -> Option<i16> {
             let key = self.key(level, row, col);
+            if critical {
+                self.critical.borrow_mut().insert(key);
+            }
             match self.cache.peek(&key) {
                 Some(tile) => {
                     self.touched.borrow_mut().push(key);
@@ -232,19 +273,13 @@ impl DemFeed {
         for key in &touched {
             self.cache.promote(key);
         }
-        for done in self.streamer.poll() {
-            match done {
-                Completion::Loaded(tile) => self.cache.insert(tile),
-                Completion::Failed(key, e) => self.note_error(&format!("{key}: {e}")),
-                Completion::Cancelled(_) => {}
-            }
-        }
+        let critical = self.critical.take();
 
         // Jobs and the tiles each level needs.
         let nadir = sphere::unit_vector(nadir_phi_theta.0, nadir_phi_theta.1);
         let mut needed: HashMap<TileKey, Priority> = HashMap::new();
         let mut per_level: Vec<(Vec<DemFillJob>, Vec<TileKey>)> = Vec::new();
-        for (rank, job) in levels.iter().enumerate() {
+        for job in levels {
             let level = self
                 .dem
                 .level_for_texel(band_limit_texel_m(&job.grid, self.dem.radius_m()));
@@ -255,15 +290,43 @@ impl DemFeed {
             }
             tiles.sort_unstable();
             tiles.dedup();
-            for &k in &tiles {
+            per_level.push((params, tiles));
+        }
+        // The levels the GPU tile cache takes this frame, coarse first: those whose tiles fit
+        // beside the ones taken before. The others wait (their tiles are neither kept on the
+        // GPU nor read), so a cache smaller than the whole view still fills it level by level
+        // instead of filling with parts of every level; a level larger than the cache can
+        // never be filled (`gpu_tiles_short`).
+        let capacity = self.gpu.capacity();
+        let mut taken: HashSet<TileKey> = HashSet::new();
+        let mut admitted = Vec::with_capacity(per_level.len());
+        let mut largest = 0;
+        for (_, tiles) in &per_level {
+            largest = largest.max(tiles.len());
+            let new = tiles.iter().filter(|k| !taken.contains(k)).count();
+            let fits = taken.len() + new <= capacity;
+            if fits {
+                taken.extend(tiles.iter().copied());
+            }
+            admitted.push(fits);
+        }
+        for (rank, ((_, tiles), &fits)) in per_level.iter().zip(&admitted).enumerate() {
+            if !fits {
+                continue;
+            }
+            for &k in tiles {
                 let p = ((rank as u64) << 40) | self.distance_rank(k, nadir);
                 needed
                     .entry(k)
                     .and_modify(|q| *q = (*q).min(p))
                     .or_insert(p);
             }
-            per_level.push((params, tiles));
         }
+        let gpu_tiles_short = (largest > capacity).then_some(GpuTilesShort {
+            asked: self.settings.gpu_tiles,
+            capacity: capacity as u32,
+            needed: largest as u32,
+        });
         // Tiles the CPU queries (camera height, culling bounds) missed: they are needed decoded,
         // in the LRU, even when a copy sits on the GPU (which the CPU cannot read).
         let aux = self.aux_missing.take();
@@ -274,18 +337,40 @@ impl DemFeed {
                 .or_insert(p);
         }
 
-        // On the GPU already, decoded and waiting for upload, or missing.
+        // What the LRU keeps whatever its budget: the camera's ground tiles and the level
+        // tiles this frame still has to upload.
+        let gpu = &self.gpu;
+        let to_upload = taken.iter().filter(|k| !gpu.contains(k));
+        self.keep = critical.iter().chain(to_upload).copied().collect();
+        for done in self.streamer.poll() {
+            match done {
+                Completion::Loaded(tile) => {
+                    let keep = &self.keep;
+                    self.cache.insert_keeping(tile, |k| keep.contains(k));
+                }
+                Completion::Failed(key, e) => self.note_error(&format!("{key}: {e}")),
+                Completion::Cancelled(_) => {}
+            }
+        }
+
+        // On the GPU already, decoded and waiting for upload, or missing. Only the levels'
+        // tiles go to the GPU; the CPU's are read from the LRU.
         let mut order: Vec<(Priority, TileKey)> = needed.iter().map(|(k, p)| (*p, *k)).collect();
         order.sort_unstable();
         let mut missing: HashMap<TileKey, Priority> = HashMap::new();
         let mut to_upload: Vec<Arc<TileData>> = Vec::new();
         for &(p, k) in &order {
-            let on_gpu = self.gpu.touch(&k, frame);
+            // Only the levels' tiles hold their slots this frame (the CPU's never need one).
+            let on_gpu = if taken.contains(&k) {
+                self.gpu.touch(&k, frame)
+            } else {
+                self.gpu.contains(&k)
+            };
             if on_gpu && !aux.contains_key(&k) {
                 continue;
             }
             match self.cache.get(&k) {
-                Some(tile) if !on_gpu => to_upload.push(tile),
+                Some(tile) if !on_gpu && taken.contains(&k) => to_upload.push(tile),
                 Some(_) => {}
                 None => {
                     missing.insert(k, p);
@@ -302,12 +387,22 @@ impl DemFeed {
                 break;
             }
         }
+        // Uploaded tiles need no decoded copy any more (unless the CPU reads them).
+        let gpu = &self.gpu;
+        let to_upload_later = taken.iter().filter(|k| !gpu.contains(k));
+        self.keep = critical.iter().chain(to_upload_later).copied().collect();
+        let keep = &self.keep;
+        self.cache.trim_keeping(|k| keep.contains(k));
+        if let Some(short) = gpu_tiles_short {
+            self.note_error(&short.to_string());
+        }
 
         // Fill the levels whose tiles are all resident.
         let mut filled = Vec::with_capacity(levels.len());
         let mut jobs = Vec::new();
-        for (params, tiles) in &per_level {
-            let ready = tiles.iter().all(|k| self.gpu.contains(k))
+        for ((params, tiles), &fits) in per_level.iter().zip(&admitted) {
+            let ready = fits
+                && tiles.iter().all(|k| self.gpu.contains(k))
                 && jobs.len() + params.len() <= self.fill.capacity() as usize;
             if ready {
                 jobs.extend_from_slice(params);
@@ -350,6 +445,7 @@ impl DemFeed {
             complete: missing.values().all(|&p| p == BOUNDS_PRIORITY)
                 && to_upload.len() == uploads as usize
                 && filled.iter().all(|f| *f),
+            gpu_tiles_short,
             last_error: self.errors.back().cloned(),
         };
         (filled, texels)
@@ -368,7 +464,8 @@ impl DemFeed {
     pub fn wait_for_tile(&mut self, timeout: Duration) {
         if let Some(done) = self.streamer.wait(timeout) {
             if let Completion::Loaded(tile) = done {
-                self.cache.insert(tile);
+                let keep = &self.keep;
+                self.cache.insert_keeping(tile, |k| keep.contains(k));
             } else if let Completion::Failed(key, e) = done {
                 self.note_error(&format!("{key}: {e}"));
             }

@@ -45,13 +45,17 @@ pub enum RenderError {
     #[error("could not start the tile streamer: {0}")]
     StreamerStart(#[source] std::io::Error),
     #[error(
-        "streaming did not settle within {timeout_s} s: {tiles_missing} tiles still missing, {in_flight} in flight; last error: {}",
+        "streaming did not settle within {timeout_s} s: still waiting for {waiting_for}; last error: {}",
         last_error.as_deref().unwrap_or("none")
     )]
     NotSettled {
-        timeout_s: u64,
-        tiles_missing: u32,
-        in_flight: u64,
+        timeout_s: f64,
+        /// What the last frame still lacked ([`terrain::FrameInfo::waiting_for`]).
+        waiting_for: String,
         last_error: Option<String>,
     },
+    /// The view can never complete with these streaming settings (found on its first frames,
+    /// instead of waiting out the timeout).
+    #[error("{0}")]
+    GpuTilesShort(dem_feed::GpuTilesShort),
 }

@@ -78,15 +78,18 @@ impl OffscreenFrame {
         renderer: &mut TerrainRenderer,
         camera: &Camera,
     ) -> Result<RenderedFrame, RenderError> {
-        if !renderer.settle(ctx, camera, self.width, self.height, SETTLE_TIMEOUT) {
-            let last = renderer.feed().map(|f| f.last.clone()).unwrap_or_default();
-            return Err(RenderError::NotSettled {
-                timeout_s: SETTLE_TIMEOUT.as_secs(),
-                tiles_missing: last.tiles_missing,
-                in_flight: last.stream.in_flight,
-                last_error: last.last_error,
-            });
-        }
+        self.render_settled_within(ctx, renderer, camera, SETTLE_TIMEOUT)
+    }
+
+    /// [`OffscreenFrame::render`], waiting at most `timeout` (`globe render --settle-timeout`).
+    pub fn render_settled_within(
+        &self,
+        ctx: &GpuContext,
+        renderer: &mut TerrainRenderer,
+        camera: &Camera,
+        timeout: std::time::Duration,
+    ) -> Result<RenderedFrame, RenderError> {
+        renderer.settle_or_explain(ctx, camera, self.width, self.height, timeout)?;
         self.render_now(ctx, renderer, camera)
     }
 

@@ -64,6 +64,52 @@ impl FrameInfo {
             && self.planar.as_ref().is_none_or(|p| p.waiting == 0)
     }
 
+    /// What keeps the frame from settling, in words (for a timeout's message): the levels
+    /// waiting and the tiles they lack, a stand-in camera height, uploads held back, planar
+    /// patches without their error; "nothing" when settled.
+    pub fn waiting_for(&self) -> String {
+        let mut parts = Vec::new();
+        let waiting = self.selection.waiting();
+        if let Some(s) = &self.stream {
+            if !waiting.is_empty() || s.tiles_missing > 0 {
+                let levels = waiting
+                    .iter()
+                    .map(u32::to_string)
+                    .collect::<Vec<_>>()
+                    .join(", ");
+                parts.push(format!(
+                    "{} tiles ({} queued, {} reading) for clipmap levels [{levels}]",
+                    s.tiles_missing, s.stream.queued, s.stream.in_flight
+                ));
+            }
+            if s.upload_backlog > 0 {
+                parts.push(format!(
+                    "{} decoded tiles waiting for GPU uploads (--uploads-per-frame)",
+                    s.upload_backlog
+                ));
+            }
+            if !s.complete && parts.is_empty() {
+                parts.push(format!(
+                    "level fills ({} of {} GPU tile slots in use)",
+                    s.gpu_tiles, s.gpu_capacity
+                ));
+            }
+        } else if !waiting.is_empty() {
+            parts.push(format!("clipmap levels {waiting:?}"));
+        }
+        if self.ground_source == HeightSource::CoarserTiles {
+            parts.push("the tile under the camera (its height is a coarser stand-in)".into());
+        }
+        if let Some(p) = self.planar.as_ref().filter(|p| p.waiting > 0) {
+            parts.push(format!("the error of {} close-up patches", p.waiting));
+        }
+        if parts.is_empty() {
+            "nothing".into()
+        } else {
+            parts.join("; ")
+        }
+    }
+
     /// Triangles drawn: the clipmap's (those in a planar square included: they are cut per
     /// fragment) and the planar method's.
     pub fn triangles(&self) -> u64 {
@@ -758,7 +804,7 @@ impl TerrainRenderer {
     /// Renders nothing but runs frames for `camera` (streaming, uploads, fills) until every
     /// tile the view needs has arrived or `timeout` passes; returns whether it settled. The
     /// headless renderer calls it before the frame it keeps (`globe render` without
-    /// `--no-wait`).
+    /// `--no-wait`). See [`TerrainRenderer::settle_or_explain`].
     pub fn settle(
         &mut self,
         ctx: &super::GpuContext,
@@ -767,6 +813,21 @@ impl TerrainRenderer {
         height_px: u32,
         timeout: std::time::Duration,
     ) -> bool {
+        self.settle_or_explain(ctx, camera, width_px, height_px, timeout)
+            .is_ok()
+    }
+
+    /// [`TerrainRenderer::settle`], saying why not: [`RenderError::NotSettled`] with what the
+    /// last frame was still waiting for, or at once [`RenderError::GpuTilesShort`] when a
+    /// level of the view (once its camera height is final) can never fit the GPU tile cache.
+    pub fn settle_or_explain(
+        &mut self,
+        ctx: &super::GpuContext,
+        camera: &Camera,
+        width_px: u32,
+        height_px: u32,
+        timeout: std::time::Duration,
+    ) -> Result<(), RenderError> {
         let deadline = std::time::Instant::now() + timeout;
         loop {
             let mut encoder = ctx
@@ -777,11 +838,21 @@ impl TerrainRenderer {
             let info = self.prepare(&ctx.queue, &mut encoder, camera, width_px, height_px);
             ctx.queue.submit([encoder.finish()]);
             if info.settled() {
-                return true;
+                return Ok(());
+            }
+            // The levels wanted follow the camera's height: final once it is no stand-in.
+            if let Some(short) = info.stream.as_ref().and_then(|s| s.gpu_tiles_short)
+                && info.ground_source != HeightSource::CoarserTiles
+            {
+                return Err(RenderError::GpuTilesShort(short));
             }
             let now = std::time::Instant::now();
             if now >= deadline {
-                return false;
+                return Err(RenderError::NotSettled {
+                    timeout_s: timeout.as_secs_f64(),
+                    waiting_for: info.waiting_for(),
+                    last_error: info.stream.and_then(|s| s.last_error),
+                });
             }
             let backlog = info.stream.as_ref().is_some_and(|s| s.upload_backlog > 0);
             if let Some(feed) = &mut self.feed

@@ -57,13 +57,32 @@ impl TileCache {
     /// Inserts a tile and evicts the least recently used ones until the budget holds again.
     /// A single tile larger than the budget is still kept (the budget is then exceeded by it).
     pub fn insert(&mut self, tile: Arc<TileData>) {
+        let key = tile.key;
+        self.insert_keeping(tile, |k| *k == key);
+    }
+
+    /// Inserts a tile, then evicts the least recently used tiles that `keep` does not name
+    /// until the budget holds again; the kept ones (what the frame in progress needs) stay even
+    /// beyond it, so a budget smaller than one frame's tiles, or 0, still lets every frame
+    /// complete instead of evicting a tile before it is used.
+    pub fn insert_keeping(&mut self, tile: Arc<TileData>, keep: impl Fn(&TileKey) -> bool) {
         let bytes = tile.bytes();
         if let Some(old) = self.tiles.put(tile.key, tile) {
             self.bytes -= old.bytes();
         }
         self.bytes += bytes;
-        while self.bytes > self.budget && self.tiles.len() > 1 {
-            if let Some((_, t)) = self.tiles.pop_lru() {
+        self.trim_keeping(keep);
+    }
+
+    /// Evicts the least recently used tiles that `keep` does not name until the budget holds
+    /// (or only kept tiles are left).
+    pub fn trim_keeping(&mut self, keep: impl Fn(&TileKey) -> bool) {
+        while self.bytes > self.budget {
+            // `iter` runs from the most recently used; the victim is the last one not kept.
+            let Some(victim) = self.tiles.iter().rev().map(|(k, _)| *k).find(|k| !keep(k)) else {
+                return;
+            };
+            if let Some(t) = self.tiles.pop(&victim) {
                 self.bytes -= t.bytes();
                 self.evicted += 1;
             }
@@ -143,5 +162,26 @@ mod tests {
             ty: 0
         }));
         assert_eq!(c.evicted, 1);
+    }
+
+    /// A budget of 0 keeps exactly what the frame needs, and nothing else.
+    #[test]
+    fn kept_tiles_stay_beyond_the_budget() {
+        let key = |tx| TileKey {
+            level: 0,
+            tx,
+            ty: 0,
+        };
+        let mut c = TileCache::new(0);
+        let needed = [key(1), key(3)];
+        for tx in 0..5 {
+            c.insert_keeping(tile(tx), |k| needed.contains(k));
+        }
+        assert_eq!(c.len(), 2);
+        assert!(needed.iter().all(|k| c.contains(k)));
+        // Once no longer needed, they go at the next trim.
+        c.trim_keeping(|k| *k == key(3));
+        assert_eq!(c.len(), 1);
+        assert!(c.contains(&key(3)) && c.bytes() == tile(3).bytes());
     }
 }

@@ -25,6 +25,8 @@ pub struct DemTerrain {
     description: String,
     /// Per level, the value at each pole when the grid reaches it (see [`PoleCap`]).
     poles: Arc<Vec<[Option<PoleCap>; 2]>>,
+    /// How the terrain function (level 0) ends at each pole (north, south).
+    ends: [PoleEnd; 2],
 }
 
 /// An equirectangular grid has no sample at a pole: its outermost row of pixel centres lies
@@ -38,6 +40,23 @@ pub struct PoleCap {
     pub row_lat_deg: f64,
     /// The pole's height: the mean of that row.
     pub height_m: f64,
+}
+
+/// How the terrain function meets a pole: what the reference ray caster's slope bound may
+/// assume there (`measure::reference`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum PoleEnd {
+    /// The outermost row lies within a pixel short of the pole and the terrain blends to its
+    /// mean ([`PoleCap`]).
+    Cap(PoleCap),
+    /// A row of pixel centres lies on the pole and holds one value all round (ETOPO5: −4290 m
+    /// at the North Pole, 2810 m at the South Pole). Bilinear between that row and the next,
+    /// the terrain is continuous across the pole and as steep as a cell of the next row.
+    ConstantRow { height_m: f64 },
+    /// Neither: a regional grid, a grid ending more than a pixel short of the pole, or a row
+    /// on the pole whose values differ (the terrain then has no single height at the pole and
+    /// no slope bound near it).
+    Open,
 }
 
 impl std::fmt::Debug for DemTerrain {
@@ -57,16 +76,23 @@ impl DemTerrain {
         // Heights outside a regional file's extents are sea level, so 0 is in the range.
         let range_m = (info.min_m.min(0.0), info.max_m.max(0.0));
         let description = format!("{} ({})", info.description, path.display());
-        let poles = (0..pyramid.level_count())
+        let poles: Vec<_> = (0..pyramid.level_count())
             .map(|level| pole_caps(&pyramid, level))
             .collect();
+        let ends = pole_ends(&pyramid, poles.first().copied().unwrap_or([None, None]));
         Ok(Self {
             pyramid: Arc::new(pyramid),
             radius_m,
             range_m,
             description,
             poles: Arc::new(poles),
+            ends,
         })
+    }
+
+    /// How the terrain function (the finest level) ends at the North and the South Pole.
+    pub fn pole_ends(&self) -> [PoleEnd; 2] {
+        self.ends
     }
 
     /// The avg plane of `level` at (lat, lon), bilinear, blended to the pole's value beyond the
@@ -239,6 +265,11 @@ impl DemTerrain {
 /// poles a cap takes about 8 × 8 at its own level, so only high latitudes are coarsened.
 pub const MAX_BOUNDS_PIXELS: f64 = 1024.0;
 
+/// A row of pixel centres this close to a pole lies on it (the readers accept a first row up
+/// to 1e-9° past a pole); a cap over a narrower gap would make the slope bound near the pole
+/// (Δlat: the gap) as good as none.
+const POLE_TOLERANCE_DEG: f64 = 1e-9;
+
 /// The pole caps of a level whose grid covers the circle and reaches within one pixel of a pole.
 fn pole_caps(pyramid: &Pyramid, level: usize) -> [Option<PoleCap>; 2] {
     let g = pyramid.grid(level);
@@ -247,7 +278,9 @@ fn pole_caps(pyramid: &Pyramid, level: usize) -> [Option<PoleCap>; 2] {
     }
     let cap = |row: usize, pole_lat: f64| {
         let row_lat_deg = g.lat_of_row(row as f64);
-        if (pole_lat - row_lat_deg).abs() > g.dlat_deg || row_lat_deg.abs() >= 90.0 {
+        // A row within 1e-9° of the pole lies on it (the readers' tolerance; [`PoleEnd`]).
+        let gap = (pole_lat - row_lat_deg).abs();
+        if gap > g.dlat_deg || gap <= POLE_TOLERANCE_DEG || row_lat_deg.abs() >= 90.0 {
             return None;
         }
         let sum: f64 = (0..g.cols)
@@ -259,6 +292,31 @@ fn pole_caps(pyramid: &Pyramid, level: usize) -> [Option<PoleCap>; 2] {
         })
     };
     [cap(0, 90.0), cap(g.rows - 1, -90.0)]
+}
+
+/// How level 0 ends at each pole: its [`PoleCap`]s, or a row on the pole holding one code.
+fn pole_ends(pyramid: &Pyramid, caps: [Option<PoleCap>; 2]) -> [PoleEnd; 2] {
+    let g = pyramid.grid(0);
+    let on_pole_row = |row: usize, pole_lat: f64| -> PoleEnd {
+        let gap = (g.lat_of_row(row as f64) - pole_lat).abs();
+        if !pyramid.wraps() || g.rows == 0 || gap > POLE_TOLERANCE_DEG {
+            return PoleEnd::Open;
+        }
+        let first = pyramid.pixel_code(0, Plane::Avg, row, 0);
+        let constant = (1..g.cols).all(|c| pyramid.pixel_code(0, Plane::Avg, row, c) == first);
+        match pyramid.pixel_m(0, Plane::Avg, row, 0) {
+            Some(height_m) if constant => PoleEnd::ConstantRow { height_m },
+            _ => PoleEnd::Open,
+        }
+    };
+    let end = |cap: Option<PoleCap>, row: usize, pole_lat: f64| match cap {
+        Some(c) => PoleEnd::Cap(c),
+        None => on_pole_row(row, pole_lat),
+    };
+    [
+        end(caps[0], 0, 90.0),
+        end(caps[1], g.rows.saturating_sub(1), -90.0),
+    ]
 }
 
 /// Where imported pyramids are cached: `$XDG_CACHE_HOME/globe` or `~/.cache/globe`, else the

@@ -3,6 +3,7 @@
 use std::borrow::Cow;
 use std::fmt;
 use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
 
 use super::format::{Encoding, Extents, Header, LevelGeom, TileEntry};
 use crate::dem::DemError;
@@ -165,6 +166,10 @@ pub struct Pyramid {
     map: MappedFile,
     header: Header,
     first_tile: Vec<usize>,
+    /// Per level and row, the lowest min and highest max code of the whole row, read on first
+    /// use by [`Pyramid::min_max_in`]: a cap reaching a pole spans every column, and reading
+    /// them all (4320 per row at 5′) on every query made the reference ray caster crawl there.
+    row_extremes: Vec<Vec<OnceLock<(i16, i16)>>>,
 }
 
 impl fmt::Debug for Pyramid {
@@ -218,11 +223,17 @@ impl Pyramid {
     fn validated(path: PathBuf, map: MappedFile) -> Result<Pyramid, DemError> {
         let header = Header::decode(&map, map.len() as u64, &path)?;
         let lay = super::format::layout(&header.levels, header.tile_size, header.description.len());
+        let row_extremes = header
+            .levels
+            .iter()
+            .map(|l| (0..l.rows).map(|_| OnceLock::new()).collect())
+            .collect();
         Ok(Pyramid {
             path,
             map,
             first_tile: lay.first_tile,
             header,
+            row_extremes,
         })
     }
 
@@ -660,9 +671,13 @@ impl Pyramid {
     /// the level-0 bilinear surface and for every coarser level's bilinear avg surface at every
     /// point of the region (the pixels read are all those whose centre is within one pixel of
     /// the region). `None` when the region misses the data or the level does not exist.
+    ///
+    /// Whole rows (a region reaching a pole, or wider than the circle) are read once per row
+    /// and remembered.
     pub fn min_max_in(&self, region: Region, level: usize) -> Option<HeightBounds> {
         let code = |l, p, r, c| Some(self.code(l, p, r, c));
-        self.min_max_in_with(region, level, &code).unwrap_or(None)
+        self.min_max_in_impl(region, level, &code, true)
+            .unwrap_or(None)
     }
 
     /// As [`Pyramid::min_max_in`], reading codes through `code`, which may lack some tiles:
@@ -672,6 +687,31 @@ impl Pyramid {
         region: Region,
         level: usize,
         code: CodeFn<'_>,
+    ) -> Result<Option<HeightBounds>, NotResident> {
+        self.min_max_in_impl(region, level, code, false)
+    }
+
+    /// The lowest min and highest max code of a whole row of a level (read once).
+    fn row_extremes(&self, level: usize, row: usize) -> (i16, i16) {
+        *self.row_extremes[level][row].get_or_init(|| {
+            let cols = self.header.levels[level].cols;
+            (0..cols).fold((i16::MAX, i16::MIN), |(lo, hi), c| {
+                (
+                    lo.min(self.code(level, Plane::Min, row, c)),
+                    hi.max(self.code(level, Plane::Max, row, c)),
+                )
+            })
+        })
+    }
+
+    /// [`Pyramid::min_max_in_with`]; `whole_rows` reads a row spanning every column through
+    /// [`Pyramid::row_extremes`] (the map's own codes: only for `code` reading the map).
+    fn min_max_in_impl(
+        &self,
+        region: Region,
+        level: usize,
+        code: CodeFn<'_>,
+        whole_rows: bool,
     ) -> Result<Option<HeightBounds>, NotResident> {
         let Some(l) = self.header.levels.get(level).copied() else {
             return Ok(None);
@@ -767,7 +807,14 @@ impl Pyramid {
         let (mut lo, mut hi) = (i16::MAX, i16::MIN);
         let mut pixels = 0;
         let n = l.cols as isize;
+        let every_column = col_ranges == [(0, n - 1)];
         for row in row_a..=row_b {
+            if whole_rows && every_column {
+                let (row_lo, row_hi) = self.row_extremes(level, row);
+                (lo, hi) = (lo.min(row_lo), hi.max(row_hi));
+                pixels += l.cols;
+                continue;
+            }
             for &(a, b) in &col_ranges {
                 for c in a..=b {
                     let col = c.rem_euclid(n) as usize;
