@@ -291,17 +291,20 @@ pub fn run(
     options: &ReportOptions,
     progress: impl FnMut(&Step),
 ) -> Result<Vec<Row>, BenchError> {
-    run_within(ctx, terrain, options, None, progress)
+    run_within(ctx, terrain, options, None, progress, |_| {})
 }
 
 /// [`run`], each view's reference ray cast within `measure_limit` (None: none; past it,
 /// [`crate::measure::MeasureError::TimedOut`]) and its progress told as [`Step::pixels`].
+/// `rows_so_far` sees the rows after each one is measured, so a long run (the projected
+/// grid's tables take an hour on a CPU rasteriser) can keep its files current.
 pub fn run_within(
     ctx: &GpuContext,
     terrain: &Terrain,
     options: &ReportOptions,
     measure_limit: Option<std::time::Duration>,
     mut progress: impl FnMut(&Step),
+    mut rows_so_far: impl FnMut(&[Row]),
 ) -> Result<Vec<Row>, BenchError> {
     let grid = if options.projgrid_tables {
         projgrid_grid(&options.base)
@@ -405,6 +408,7 @@ pub fn run_within(
                     (g.cells_above_gamma, (s.cols * s.rows) as usize)
                 }),
             });
+            rows_so_far(&rows);
         }
     }
     Ok(rows)
@@ -754,6 +758,27 @@ pub fn write(
     terrain: &str,
     options: &ReportOptions,
 ) -> Result<(), ReportError> {
+    write_text(dir, rows, adapter, terrain, options)?;
+    let short = adapter.split(" (").next().unwrap_or(adapter);
+    let (w, h) = PLOT_PANEL_PX;
+    plot::write_figure(
+        &dir.join("error_vs_time.png"),
+        &dir.join("error_vs_time.svg"),
+        &plot_panels(rows, short),
+        w,
+        h,
+    )?;
+    Ok(())
+}
+
+/// The text files of [`write`] alone (no figure): cheap enough to rewrite after every row.
+pub fn write_text(
+    dir: &Path,
+    rows: &[Row],
+    adapter: &str,
+    terrain: &str,
+    options: &ReportOptions,
+) -> Result<(), ReportError> {
     let io = |path: std::path::PathBuf| move |source| ReportError::Write { path, source };
     std::fs::create_dir_all(dir).map_err(io(dir.to_path_buf()))?;
     let text_files = [
@@ -770,15 +795,6 @@ pub fn write(
         std::fs::write(&path, projgrid_tables(rows, adapter, terrain, options))
             .map_err(io(path))?;
     }
-    let short = adapter.split(" (").next().unwrap_or(adapter);
-    let (w, h) = PLOT_PANEL_PX;
-    plot::write_figure(
-        &dir.join("error_vs_time.png"),
-        &dir.join("error_vs_time.svg"),
-        &plot_panels(rows, short),
-        w,
-        h,
-    )?;
     Ok(())
 }
 

@@ -1118,23 +1118,44 @@ fn report(args: &ReportArgs) -> anyhow::Result<ExitCode> {
     };
     let started = Instant::now();
     let mut progress = None;
-    let rows = globe::report::run_within(&ctx, &terrain, &options, measure_limit, |step| {
-        let p = progress
-            .get_or_insert_with(|| Progress::new("report", step.total as u64, Some("steps")));
-        match step.pixels {
-            Some((done, all)) => p.note(format!(
-                "{} ({:.0} % of {all} px)",
-                step.message,
-                100.0 * done as f64 / all.max(1) as f64
-            )),
-            None => p.step(step.index as u64, step.message.as_str()),
-        }
-    })
+    let describe = terrain.describe();
+    let mut partial_error = None;
+    let rows = globe::report::run_within(
+        &ctx,
+        &terrain,
+        &options,
+        measure_limit,
+        |step| {
+            let p = progress
+                .get_or_insert_with(|| Progress::new("report", step.total as u64, Some("steps")));
+            match step.pixels {
+                Some((done, all)) => p.note(format!(
+                    "{} ({:.0} % of {all} px)",
+                    step.message,
+                    100.0 * done as f64 / all.max(1) as f64
+                )),
+                None => p.step(step.index as u64, step.message.as_str()),
+            }
+        },
+        // The text files follow every row, so an interrupted run keeps what it measured.
+        |rows| {
+            if partial_error.is_none() {
+                partial_error =
+                    globe::report::write_text(&args.out, rows, &adapter, &describe, &options).err();
+            }
+        },
+    )
     .map_err(|e| args.measure_limit.explain(e.into()))?;
+    if let Some(e) = partial_error {
+        return Err(anyhow::Error::new(e).context(format!(
+            "cannot write the report into {}",
+            args.out.display()
+        )));
+    }
     if let Some(p) = progress {
         p.finish();
     }
-    globe::report::write(&args.out, &rows, &adapter, &terrain.describe(), &options)
+    globe::report::write(&args.out, &rows, &adapter, &describe, &options)
         .with_context(|| format!("cannot write the report into {}", args.out.display()))?;
     eprintln!(
         "wrote {}/report.csv, report.json, report.md, error_vs_time.png and .svg ({} rows) in {:.1} s",
