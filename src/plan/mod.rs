@@ -26,6 +26,7 @@ use glam::{DMat3, DMat4, DVec3};
 
 use crate::geo::camera::Camera;
 use crate::geo::{projection, sphere};
+use crate::planar::projgrid::CellBounds;
 use crate::terrain::Terrain;
 
 pub use clipmap::{ClipmapPlan, LevelFill};
@@ -115,6 +116,45 @@ pub trait TerrainQuery {
     /// The height the GPU draws at unit vector `u`, `arc_rad` from the viewer: the detail's
     /// octaves limited by the geometry rule λ(θ̃) there (what a close-up method's δ measures).
     fn height_drawn_m(&self, u: DVec3, arc_rad: f64) -> f64;
+    /// What bounds the drawn terrain in a close-up cell: a cap of `angle_rad` around `u` whose
+    /// nearest point is `arc_rad` from the viewer. By default the culling bounds, no slope.
+    fn cell_bounds_m(&self, u: DVec3, angle_rad: f64, _arc_rad: f64) -> CellBounds {
+        let (min_m, max_m) = self.height_bounds_near_m(u, angle_rad);
+        CellBounds {
+            min_m,
+            max_m,
+            slope: f64::INFINITY,
+        }
+    }
+}
+
+/// [`TerrainQuery::cell_bounds_m`] over a DEM whose nodes in the drawn cap span
+/// `dem_range_m`, plus the detail drawn there: the DEM's slope bound, and the detail's
+/// amplitude and slope for the octaves the nearest point draws (one more for the levels' blend;
+/// ×1.5 for the textures' bilinear resampling).
+pub(crate) fn dem_cell_bounds(
+    dem: &crate::terrain::DemTerrain,
+    detail: Option<&crate::procedural::Detail>,
+    water_level_m: Option<f64>,
+    (u, angle_rad, arc_rad): (DVec3, f64, f64),
+    dem_range_m: (f64, f64),
+) -> CellBounds {
+    let (lo, hi) = dem_range_m;
+    let mut slope = dem.slope_bound(u, angle_rad, hi - lo);
+    let mut amplitude = 0.0;
+    if let Some(d) = detail {
+        let lambda = (d.lambda_at_angle(arc_rad) + 1.0).min(d.lambda_full());
+        let (a, s) = d.bounds_near(u, angle_rad, lambda);
+        amplitude = a;
+        slope += 1.5 * s;
+    }
+    let (min_m, max_m) =
+        crate::terrain::bounds_with_water((lo - amplitude, hi + amplitude), water_level_m);
+    CellBounds {
+        min_m,
+        max_m,
+        slope,
+    }
 }
 
 impl TerrainQuery for Terrain {
@@ -132,6 +172,25 @@ impl TerrainQuery for Terrain {
     }
     fn height_bounds_near_m(&self, u: DVec3, angle_rad: f64) -> (f64, f64) {
         Terrain::height_bounds_near_m(self, u, angle_rad)
+    }
+    fn cell_bounds_m(&self, u: DVec3, angle_rad: f64, arc_rad: f64) -> CellBounds {
+        let Some(dem) = self.dem() else {
+            let (min_m, max_m) = self.height_bounds_near_m(u, angle_rad);
+            return CellBounds {
+                min_m,
+                max_m,
+                slope: f64::INFINITY,
+            };
+        };
+        let cap = dem.drawn_cap_rad(angle_rad, arc_rad);
+        let range = dem.height_bounds_near_m(u, cap);
+        dem_cell_bounds(
+            dem,
+            self.detail().map(|d| d.as_ref()),
+            self.water_level_m(),
+            (u, cap, arc_rad),
+            range,
+        )
     }
     fn height_drawn_m(&self, u: DVec3, arc_rad: f64) -> f64 {
         let base = self.base_height_m(u);

@@ -101,7 +101,7 @@ pub fn plan(
     let to_world = |u: DVec3| world_from_view * u;
     let arc = |u: DVec3| u.truncate().length().atan2(u.z);
     let height = |u: DVec3| query.height_drawn_m(to_world(u), arc(u));
-    let bounds = |u: DVec3, angle: f64| query.height_bounds_near_m(to_world(u), angle);
+    let bounds = |u: DVec3, angle: f64, arc: f64| query.cell_bounds_m(to_world(u), angle, arc);
     let grid_of = |cols: u32, rows: u32, uv: &[DVec2]| ProjectedGrid {
         cols,
         rows,

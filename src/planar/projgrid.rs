@@ -193,6 +193,15 @@ pub struct HeightBounds {
     pub max_m: f64,
 }
 
+/// What bounds the terrain inside one cell: heights, and a bound on its slope (metres per
+/// metre along the ground; ∞ when none is known) that tightens them around the cell's corners.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CellBounds {
+    pub min_m: f64,
+    pub max_m: f64,
+    pub slope: f64,
+}
+
 /// A ray against the sphere of one radius.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SphereHit {
@@ -601,6 +610,7 @@ impl ThetaTable {
 }
 
 /// Angle between two unit vectors, accurate when small.
+#[cfg(test)]
 fn angle(a: DVec3, b: DVec3) -> f64 {
     a.cross(b).length().atan2(a.dot(b))
 }
@@ -718,46 +728,91 @@ impl ErrorBuffer {
         bounds: &dyn Fn(DVec3, f64) -> (f64, f64),
     ) -> Self {
         let point = |uv| projector.point(uv);
-        Self::compute_with(projector, grid, view, gamma_px, height, bounds, &point)
+        let bounds = |u, angle, _arc| {
+            let (min_m, max_m) = bounds(u, angle);
+            CellBounds {
+                min_m,
+                max_m,
+                slope: f64::INFINITY,
+            }
+        };
+        Self::compute_with(projector, grid, view, gamma_px, height, &bounds, &point)
     }
 
     /// [`ErrorBuffer::compute`] with the grid's map from (u, v) to a point given (a frame's
-    /// plan passes [`ThetaTable::point`], the grid's own).
+    /// plan passes [`ThetaTable::point`], the grid's own), and `bounds(centre, angle, arc)`
+    /// bounding the terrain in a cap of `angle` whose nearest point is `arc` from the nadir.
+    ///
+    /// A finite slope bound S tightens the heights to [corner min − S·s, corner max + S·s],
+    /// s the farthest any point of the cell lies from its nearest corner. Split along a
+    /// diagonal, that is at most a triangle's longest side over √3, and every side lies
+    /// within the cap's diameter: s ≤ 2·radius/√3 (about the cap's radius itself):
+    /// a cell metres across under a DEM pixel kilometres across then bounds the terrain by
+    /// what it can rise over metres, not by the pixel's whole relief.
     pub fn compute_with(
         projector: &Projector,
         grid: &ProjectedGrid,
         view: &RenderView,
         gamma_px: f64,
         height: &dyn Fn(DVec3) -> f64,
-        bounds: &dyn Fn(DVec3, f64) -> (f64, f64),
+        bounds: &dyn Fn(DVec3, f64, f64) -> CellBounds,
         point: &dyn Fn(DVec2) -> GridPoint,
     ) -> Self {
         let lambda = view.pixels_per_radian();
         let heights: Vec<f64> = grid.points.iter().map(|p| height(p.unit)).collect();
         let e = view.eye_m;
         let (r, r_e) = (view.radius_m, e.length());
-        let mut cells = Vec::with_capacity((grid.cols * grid.rows) as usize);
+        // The boundary of each cell: its corners and three points along each edge. Edges are
+        // shared by two cells, so their points are computed once per edge.
+        let (cols, rows) = (grid.cols as usize, grid.rows as usize);
+        let w = cols + 1;
+        let along = |a: usize, b: usize| {
+            let (pa, pb) = (grid.points[a].uv, grid.points[b].uv);
+            [1.0, 2.0, 3.0].map(|s| point(pa.lerp(pb, s / 4.0)).unit)
+        };
+        let across: Vec<[DVec3; 3]> = (0..=rows)
+            .flat_map(|j| (0..cols).map(move |i| (j, i)))
+            .map(|(j, i)| along(j * w + i, j * w + i + 1))
+            .collect();
+        let down: Vec<[DVec3; 3]> = (0..rows)
+            .flat_map(|j| (0..w).map(move |i| (j, i)))
+            .map(|(j, i)| along(j * w + i, (j + 1) * w + i))
+            .collect();
+        // Angles from squared chords: exact for the smallest cells, one asin per cell.
+        let chord_angle = |c2: f64| 2.0 * (0.5 * c2.sqrt()).min(1.0).asin();
+        let mut cells = Vec::with_capacity(cols * rows);
         for j in 0..grid.rows {
             for i in 0..grid.cols {
                 let k = grid.cell_vertices(i, j);
                 let corners = k.map(|k| grid.points[k].uv);
                 let mid = 0.25 * corners.iter().sum::<DVec2>();
                 let centre = point(mid).unit;
-                // Boundary: corners and three points along each edge (00→10→11→01).
-                let ring = [corners[0], corners[1], corners[3], corners[2], corners[0]];
-                let (mut radius_rad, mut theta_min) = (0.0f64, PI);
-                for w in ring.windows(2) {
-                    for s in 0..4 {
-                        let q = point(w[0].lerp(w[1], f64::from(s) / 4.0)).unit;
-                        radius_rad = radius_rad.max(angle(q, centre));
-                        theta_min = theta_min.min(angle(q, projector.nadir));
-                    }
+                let (iu, ju) = (i as usize, j as usize);
+                let edges = [
+                    &across[ju * cols + iu],
+                    &across[(ju + 1) * cols + iu],
+                    &down[ju * w + iu],
+                    &down[ju * w + iu + 1],
+                ];
+                let samples = (k.iter().map(|&k| grid.points[k].unit))
+                    .chain(edges.into_iter().flatten().copied());
+                let (mut far_c2, mut near_c2) = (0.0f64, f64::INFINITY);
+                for q in samples {
+                    far_c2 = far_c2.max(q.distance_squared(centre));
+                    near_c2 = near_c2.min(q.distance_squared(projector.nadir));
                 }
+                let (radius_rad, theta_min) = (chord_angle(far_c2), chord_angle(near_c2));
                 let radius_rad = radius_rad * (1.0 + CAP_MARGIN);
                 let hs = k.map(|k| heights[k]);
                 let corner_min = hs.iter().copied().fold(f64::INFINITY, f64::min);
                 let corner_max = hs.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-                let (b_min, b_max) = bounds(centre, radius_rad);
+                let b = bounds(centre, radius_rad, theta_min);
+                let (mut b_min, mut b_max) = (b.min_m, b.max_m);
+                if b.slope.is_finite() {
+                    let reach_m = 2.0 / 3f64.sqrt() * radius_rad * (r + b_max.max(0.0));
+                    b_min = b_min.max(corner_min - b.slope * reach_m);
+                    b_max = b_max.min(corner_max + b.slope * reach_m);
+                }
                 let (min_m, max_m) = (b_min.min(corner_min), b_max.max(corner_max));
                 let delta_m = (max_m - corner_min).max(corner_max - min_m);
                 // Nearest point of the cell's volume: the eye is on the nadir, so distance grows

@@ -18,6 +18,7 @@ use crate::clipmap::levels::{GridRect, LevelGrid};
 use crate::dem::pyramid::{CodeFn, Plane};
 use crate::geo::sphere;
 use crate::plan::{HeightSource, LevelFill, TerrainQuery};
+use crate::planar::projgrid::CellBounds;
 use crate::stream::source::open_source;
 use crate::stream::{
     Completion, Priority, StreamSettings, StreamStats, TileCache, TileData, TileKey, TileStreamer,
@@ -195,14 +196,23 @@ impl DemFeed {
         f: impl FnOnce(CodeFn<'_>) -> R,
     ) -> R {
         let t = self.dem.pyramid().tile_size();
+        // The last tile read: a query reads runs of codes from one tile, and a hash lookup
+        // (plus the bookkeeping below) per code was most of a projected grid's plan.
+        let last: std::cell::Cell<Option<(TileKey, &TileData)>> = std::cell::Cell::new(None);
         let code = |level: usize, p: Plane, row: usize, col: usize| -> Option<i16> {
             let key = self.key(level, row, col);
+            if let Some((k, tile)) = last.get()
+                && k == key
+            {
+                return Some(tile.code(p, col % t, row % t));
+            }
             if critical {
                 self.critical.borrow_mut().insert(key);
             }
             match self.cache.peek(&key) {
                 Some(tile) => {
                     self.touched.borrow_mut().push(key);
+                    last.set(Some((key, tile.as_ref())));
                     Some(tile.code(p, col % t, row % t))
                 }
                 None => {
@@ -224,6 +234,21 @@ impl DemFeed {
     pub fn height_at_m(&self, lat_deg: f64, lon_deg: f64) -> f64 {
         for level in 0..self.dem.pyramid().level_count() {
             let got = self.with_codes(level == 0, CAMERA_PRIORITY, true, |code| {
+                self.dem.sample_m_with(lat_deg, lon_deg, level, code)
+            });
+            if let Ok(h) = got {
+                return h;
+            }
+        }
+        0.0
+    }
+
+    /// The height a close-up mesh's vertex takes: as [`DemFeed::height_at_m`], but neither
+    /// asking for tiles nor holding them as the camera's own (the clipmap's levels ask for
+    /// what is drawn; a grid's tens of thousands of vertices are not the camera's ground).
+    fn height_drawn_base_m(&self, lat_deg: f64, lon_deg: f64) -> f64 {
+        for level in 0..self.dem.pyramid().level_count() {
+            let got = self.with_codes(false, CAMERA_PRIORITY, false, |code| {
                 self.dem.sample_m_with(lat_deg, lon_deg, level, code)
             });
             if let Ok(h) = got {
@@ -651,12 +676,23 @@ impl TerrainQuery for DemFeed {
     fn height_drawn_m(&self, u: DVec3, arc_rad: f64) -> f64 {
         let (phi, theta) = (u.y.atan2(u.x), u.x.hypot(u.y).atan2(u.z));
         let (lat, lon) = sphere::lat_lon_deg_from_phi_theta(phi, theta);
-        let base = self.height_at_m(lat, lon);
+        let base = self.height_drawn_base_m(lat, lon);
         let detail = self
             .detail
             .as_ref()
             .map_or(0.0, |d| d.height_m(u, d.lambda_at_angle(arc_rad)));
         with_water(base + detail, self.water_level_m)
+    }
+    fn cell_bounds_m(&self, u: DVec3, angle_rad: f64, arc_rad: f64) -> CellBounds {
+        let cap = self.dem.drawn_cap_rad(angle_rad, arc_rad);
+        let range = DemFeed::height_bounds_near_m(self, u, cap);
+        crate::plan::dem_cell_bounds(
+            &self.dem,
+            self.detail.as_deref(),
+            self.water_level_m,
+            (u, cap, arc_rad),
+            range,
+        )
     }
     fn height_bounds_near_m(&self, u: DVec3, angle_rad: f64) -> (f64, f64) {
         let (lo, hi) = DemFeed::height_bounds_near_m(self, u, angle_rad);

@@ -173,6 +173,37 @@ impl DemTerrain {
             .level_for_spacing((texel_m / self.radius_m).to_degrees())
     }
 
+    /// The cap whose nodes the drawn terrain within `angle_rad` of a point `arc_rad` from the
+    /// viewer reads: widened by a pixel diagonal of the coarsest pyramid level a clipmap
+    /// texture there samples (the nodes of every pixel the cap touches). The level drawn at an arc reaches at most twice as far, over at
+    /// least 128 texels, so its texel is at most arc·R/32.
+    pub fn drawn_cap_rad(&self, angle_rad: f64, arc_rad: f64) -> f64 {
+        let level = self.level_for_texel(arc_rad.max(0.0) * self.radius_m / 32.0);
+        let g = self.pyramid.grid(level);
+        angle_rad + g.dlat_deg.hypot(g.dlon_deg).to_radians()
+    }
+
+    /// A bound on the drawn terrain's slope (metres per metre) within `angle_rad` of `u`,
+    /// where the nodes it reads span `range_m` ([`DemTerrain::drawn_cap_rad`]). A bilinear
+    /// cell's partial derivatives are at most its nodes' range over its side, √2 for the
+    /// two; a texture resampling it bilinearly, √2 again. Longitude pixels narrow as cos(lat):
+    /// the most poleward latitude of the cap sets the side, and within a pixel of a pole there
+    /// is no bound (∞).
+    pub fn slope_bound(&self, u: DVec3, angle_rad: f64, range_m: f64) -> f64 {
+        let g = self.pyramid.grid(0);
+        let (_, theta, _) = sphere::phi_theta_height_from_ecef_m(u, 1.0);
+        let lat_max =
+            (std::f64::consts::FRAC_PI_2 - theta).abs() + angle_rad + g.dlat_deg.to_radians();
+        if lat_max >= std::f64::consts::FRAC_PI_2 {
+            return f64::INFINITY;
+        }
+        let side_rad = g
+            .dlat_deg
+            .to_radians()
+            .min(g.dlon_deg.to_radians() * lat_max.cos());
+        2.0 * std::f64::consts::SQRT_2 * range_m.max(0.0) / (self.radius_m * side_rad)
+    }
+
     /// Height at (φ, θ) as a texture of ground spacing `texel_m` holds it.
     pub fn height_band_limited_m(&self, phi_rad: f64, theta_rad: f64, level: usize) -> f64 {
         let (lat, lon) = sphere::lat_lon_deg_from_phi_theta(phi_rad, theta_rad);
