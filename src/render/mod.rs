@@ -55,8 +55,9 @@ pub enum RenderError {
         waiting_for: String,
         last_error: Option<String>,
         /// What happened to the pyramid file, when something did (a truncation is why tiles
-        /// never arrive).
-        file_change: Option<crate::dem::FileChange>,
+        /// never arrive). Boxed: it is rare and large, and every render result carries room
+        /// for it.
+        file_change: Option<Box<crate::dem::FileChange>>,
     },
     /// The view can never complete with these streaming settings (found on its first frames,
     /// instead of waiting out the timeout).
