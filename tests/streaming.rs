@@ -328,7 +328,7 @@ fn issue_10_a_camera_tile_evicted_from_the_cpu_cache_is_read_again() {
 /// A tile corrupted in place after the file was opened is caught by its checksum: the read
 /// fails with an error naming the tile (retried, reported in the frame's stream state), the
 /// renderer keeps drawing the coarser levels and nothing panics. A file that grows under the
-/// map is caught by the length check before each read.
+/// map keeps its tiles where they were: reads go on (tests/file_changes.rs has the rest).
 #[test]
 fn corrupt_or_changed_pyramid_files_are_reported_not_fatal() {
     use std::io::{Seek, SeekFrom, Write};
@@ -396,19 +396,19 @@ fn corrupt_or_changed_pyramid_files_are_reported_not_fatal() {
     );
     assert!(!frame.info.selection.waiting().is_empty());
 
-    // Growth under the map: every read fails with the length check's message.
+    // Growth under the map: the tiles are where they were, so reads go on (CRC-checked), and
+    // the corrupt tile still fails its CRC; `verify` still calls the file's growth an error.
     let mut f = std::fs::OpenOptions::new()
         .append(true)
         .open(&path)
         .unwrap();
     f.write_all(&[0; 4096]).unwrap();
     let source = globe::stream::MmapTileSource::new(copy.pyramid_arc());
-    let err = source
-        .read(TileKey {
-            level: 0,
-            tx: 0,
-            ty: 0,
-        })
-        .unwrap_err();
+    let key = |tx, ty| TileKey { level: 0, tx, ty };
+    source.read(key(0, 0)).unwrap();
+    let (tx, ty) = ((col as usize / t) as u32, (row as usize / t) as u32);
+    let err = source.read(key(tx, ty)).unwrap_err();
+    assert!(err.to_string().contains("checksum mismatch"), "{err}");
+    let err = copy.pyramid().verify().unwrap_err();
     assert!(err.to_string().contains("grew"), "{err}");
 }

@@ -730,6 +730,7 @@ fn render(args: &RenderArgs) -> anyhow::Result<ExitCode> {
     } else {
         target.render_settled_within(&ctx, &mut renderer, &camera, settle_timeout)?
     };
+    print_file_changes("globe render", frame.info.stream.as_ref());
     if args.measure {
         let mut progress = MeasureProgress::default();
         let measured = globe::measure::evaluate_within(
@@ -824,6 +825,13 @@ fn render(args: &RenderArgs) -> anyhow::Result<ExitCode> {
         started.elapsed().as_secs_f64()
     );
     Ok(ExitCode::SUCCESS)
+}
+
+/// Each change to the pyramid file the watcher reported during the run, once, on stderr.
+fn print_file_changes(command: &str, stream: Option<&globe::render::dem_feed::FeedFrame>) {
+    for change in stream.map_or(&[][..], |s| s.file_changes_after(0)) {
+        eprintln!("{command}: {change}");
+    }
 }
 
 fn viewer(args: &ViewerArgs) -> anyhow::Result<ExitCode> {
@@ -933,6 +941,7 @@ fn bench(args: &BenchArgs) -> anyhow::Result<ExitCode> {
             p.finish();
         }
         measuring.finish();
+        print_file_changes("globe bench", run.last_stream());
         if let Some(path) = &args.csv {
             let path = if args.stream.tile_latency_ms.len() > 1 {
                 let stem = path.file_stem().unwrap_or_default().to_string_lossy();

@@ -25,7 +25,13 @@
 //!   - files this crate writes are never truncated in place: the builder writes
 //!     `FILE.partial` and renames it, so a reader's mapping keeps the old inode alive.
 //!
+//!   - [`MappedFile::observe`] gives the streamer's watcher (one `fstat` and one `stat` about
+//!     once a second) what happened to the mapped inode and to the path since the open, so a
+//!     truncation is reported (`crate::dem::FileChange`) and the tiles past the new end are
+//!     refused by the per-read check instead of being touched.
+//!
 //!   What remains is a truncation in place racing an access between a check and the copy.
+//!   A rename cannot cause it: the map holds the old inode, whose length no rename changes.
 //!   Replace such files by renaming; never truncate one that a viewer has open (README, "The
 //!   mmap SIGBUS risk").
 //! * **Contents changed in place without a size change** are not a memory-safety issue for
@@ -33,6 +39,7 @@
 
 use std::fs::File;
 use std::ops::Deref;
+use std::os::unix::fs::MetadataExt;
 use std::path::{Path, PathBuf};
 
 use memmap2::Mmap;
@@ -46,6 +53,44 @@ pub(crate) struct OpenFile {
     path: PathBuf,
     file: File,
     len: u64,
+    identity: FileIdentity,
+}
+
+/// Which file a descriptor or a path is, and how long and how recent: what the watcher
+/// compares with the state at open (device + inode say whether the path still names the mapped
+/// file; length and mtime whether that file changed in place).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct FileIdentity {
+    pub dev: u64,
+    pub ino: u64,
+    pub len: u64,
+    /// Modification time, nanoseconds since the epoch.
+    pub mtime_ns: i128,
+}
+
+impl FileIdentity {
+    fn of(m: &std::fs::Metadata) -> FileIdentity {
+        FileIdentity {
+            dev: m.dev(),
+            ino: m.ino(),
+            len: m.len(),
+            mtime_ns: m.mtime() as i128 * 1_000_000_000 + m.mtime_nsec() as i128,
+        }
+    }
+
+    /// The same file (device and inode), whatever its length and mtime.
+    pub fn same_file(&self, other: &FileIdentity) -> bool {
+        (self.dev, self.ino) == (other.dev, other.ino)
+    }
+}
+
+/// What [`MappedFile::observe`] saw: the mapped file as opened and now (`fstat` of the open
+/// descriptor), and what the path names now (`stat`; an error when it names nothing).
+#[derive(Debug)]
+pub(crate) struct Observed {
+    pub opened: FileIdentity,
+    pub mapped_now: std::io::Result<FileIdentity>,
+    pub path_now: std::io::Result<FileIdentity>,
 }
 
 impl OpenFile {
@@ -55,11 +100,12 @@ impl OpenFile {
             source,
         };
         let file = File::open(path).map_err(io)?;
-        let len = file.metadata().map_err(io)?.len();
+        let identity = FileIdentity::of(&file.metadata().map_err(io)?);
         Ok(OpenFile {
             path: path.to_path_buf(),
             file,
-            len,
+            len: identity.len,
+            identity,
         })
     }
 
@@ -93,6 +139,7 @@ impl OpenFile {
             bytes: Storage::Map {
                 file: self.file,
                 map,
+                opened: self.identity,
             },
         })
     }
@@ -108,7 +155,12 @@ pub(crate) struct MappedFile {
 
 /// Where the bytes are.
 enum Storage {
-    Map { file: File, map: Mmap },
+    Map {
+        file: File,
+        map: Mmap,
+        /// The file as measured at open.
+        opened: FileIdentity,
+    },
     Owned(Vec<u8>),
 }
 
@@ -123,6 +175,19 @@ impl MappedFile {
         MappedFile {
             path: path.to_path_buf(),
             bytes: Storage::Owned(bytes),
+        }
+    }
+
+    /// The mapped file as opened and now, and what its path names now (one `fstat`, one
+    /// `stat`); None for bytes in memory, which cannot change.
+    pub(crate) fn observe(&self) -> Option<Observed> {
+        match &self.bytes {
+            Storage::Map { file, opened, .. } => Some(Observed {
+                opened: *opened,
+                mapped_now: file.metadata().map(|m| FileIdentity::of(&m)),
+                path_now: std::fs::metadata(&self.path).map(|m| FileIdentity::of(&m)),
+            }),
+            Storage::Owned(_) => None,
         }
     }
 

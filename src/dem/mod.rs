@@ -10,6 +10,7 @@
 
 #![deny(unsafe_code)]
 
+mod change;
 pub mod ehdr;
 pub mod embedded;
 mod mapped;
@@ -17,6 +18,7 @@ pub mod netcdf;
 pub mod pyramid;
 pub mod raster;
 
+pub use change::FileChange;
 pub use ehdr::{EhdrMosaic, EhdrRaster};
 pub use netcdf::{NetcdfFile, NetcdfRaster};
 pub use pyramid::{Pyramid, PyramidBuilder};

@@ -165,13 +165,16 @@
 //! * The builder writes `<out>.partial` and renames it over `out`: rebuilding a pyramid
 //!   replaces the directory entry, while a viewer's mapping keeps the old inode (and its
 //!   data) alive — the common "file replaced while mapped" case is safe.
-//! * [`Pyramid::check_length`] (one `fstat`) re-checks the length; `verify` calls it first,
-//!   and the streamer can call it before each batch of reads.
+//! * [`Pyramid::check_tile_in_file`] (one `fstat`) refuses, before every streamed read, a
+//!   tile the file no longer reaches; [`Pyramid::check_length`] re-checks the whole length for
+//!   `verify`. [`Pyramid::file_change`] says what happened to the file and its path
+//!   (replaced, deleted, truncated, appended to, modified) for the streamer's watcher.
 //! * Contents changed in place without a size change are caught by the tile CRCs.
 //!
 //! The remaining risk: another process truncating *the same inode in place* (`truncate`,
 //! a shell `>` redirection, a copy tool opening with `O_TRUNC`) between a check and an
-//! access still faults. Do not edit pyramid files in place; a reader that must survive that
+//! access still faults, as does a CPU-side reader that reads the map without the per-tile
+//! check (the reference ray caster, `DemTerrain`'s samplers) after such a truncation. Do not edit pyramid files in place; a reader that must survive that
 //! should read tiles with positioned reads (`pread`) instead of the map.
 //!
 //! The map itself is made by `crate::dem::mapped`, shared with the EHdr and netCDF readers.

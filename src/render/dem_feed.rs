@@ -15,6 +15,7 @@ use std::time::{Duration, Instant};
 use glam::DVec3;
 
 use crate::clipmap::levels::{GridRect, LevelGrid};
+use crate::dem::FileChange;
 use crate::dem::pyramid::{CodeFn, Plane};
 use crate::geo::sphere;
 use crate::plan::{HeightSource, LevelFill, TerrainQuery};
@@ -57,8 +58,24 @@ pub struct FeedFrame {
     /// it can never be filled, and the view never completes.
     pub gpu_tiles_short: Option<GpuTilesShort>,
     pub last_error: Option<String>,
+    /// What happened to the pyramid file since it was opened, as the watcher last saw it
+    /// (None: as opened). The panel shows it.
+    pub file_change: Option<FileChange>,
+    /// Every change the watcher reported, oldest first (the last 16), and how many in all: a
+    /// front end prints those it has not printed yet, so each reaches stderr once.
+    pub file_changes: Vec<FileChange>,
+    pub file_changes_total: u64,
     /// Bytes read from the source per second, over the last half second or more.
     pub read_mb_per_s: f64,
+}
+
+impl FeedFrame {
+    /// The reported file changes after the first `printed` (those a front end has not printed
+    /// yet; at most the last 16).
+    pub fn file_changes_after(&self, printed: u64) -> &[FileChange] {
+        let new = self.file_changes_total.saturating_sub(printed) as usize;
+        &self.file_changes[self.file_changes.len().saturating_sub(new)..]
+    }
 }
 
 /// The GPU tile cache is too small for a level of the view: a level is filled from its tiles
@@ -111,6 +128,10 @@ pub struct DemFeed {
     /// tiles and its level tiles not yet on the GPU.
     keep: HashSet<TileKey>,
     errors: VecDeque<String>,
+    /// The file's state and the changes reported (see [`FeedFrame::file_change`]).
+    file_change: Option<FileChange>,
+    file_changes: VecDeque<FileChange>,
+    file_changes_total: u64,
     pub last: FeedFrame,
     /// (when, bytes read then) of the last rate sample.
     rate_sample: (Instant, u64),
@@ -158,6 +179,9 @@ impl DemFeed {
             critical: RefCell::new(HashSet::new()),
             keep: HashSet::new(),
             errors: VecDeque::new(),
+            file_change: None,
+            file_changes: VecDeque::new(),
+            file_changes_total: 0,
             last: FeedFrame::default(),
             rate_sample: (Instant::now(), 0),
             read_mb_per_s: 0.0,
@@ -373,7 +397,7 @@ impl DemFeed {
                     let keep = &self.keep;
                     self.cache.insert_keeping(tile, |k| keep.contains(k));
                 }
-                Completion::Failed(key, e) => self.note_error(&format!("{key}: {e}")),
+                Completion::Failed(_, e) => self.note_error(&e.to_string()),
                 Completion::Cancelled(_) => {}
             }
         }
@@ -444,6 +468,16 @@ impl DemFeed {
             .encode(queue, encoder, &params, detail, &details, timestamps);
 
         self.streamer.want(&missing);
+        for state in self.streamer.poll_file() {
+            if let Some(change) = &state {
+                self.file_changes.push_back(change.clone());
+                self.file_changes_total += 1;
+                if self.file_changes.len() > 16 {
+                    self.file_changes.pop_front();
+                }
+            }
+            self.file_change = state;
+        }
         let stream = self.streamer.stats();
         let dt = self.rate_sample.0.elapsed().as_secs_f64();
         if dt >= 0.5 {
@@ -472,6 +506,9 @@ impl DemFeed {
                 && filled.iter().all(|f| *f),
             gpu_tiles_short,
             last_error: self.errors.back().cloned(),
+            file_change: self.file_change.clone(),
+            file_changes: self.file_changes.iter().cloned().collect(),
+            file_changes_total: self.file_changes_total,
         };
         (filled, texels)
     }
@@ -491,8 +528,9 @@ impl DemFeed {
             if let Completion::Loaded(tile) = done {
                 let keep = &self.keep;
                 self.cache.insert_keeping(tile, |k| keep.contains(k));
-            } else if let Completion::Failed(key, e) = done {
-                self.note_error(&format!("{key}: {e}"));
+            } else if let Completion::Failed(_, e) = done {
+                // The error names its tile.
+                self.note_error(&e.to_string());
             }
         }
     }

@@ -45,14 +45,19 @@ pub enum RenderError {
     #[error("could not start the tile streamer: {0}")]
     StreamerStart(#[source] std::io::Error),
     #[error(
-        "streaming did not settle within {timeout_s} s: still waiting for {waiting_for}; last error: {}",
-        last_error.as_deref().unwrap_or("none")
+        "streaming did not settle within {timeout_s} s: still waiting for {waiting_for}; last error: {}{}",
+        last_error.as_deref().unwrap_or("none"),
+        file_change.as_ref().map_or(String::new(), |c| format!("; {c}"))
     )]
     NotSettled {
         timeout_s: f64,
         /// What the last frame still lacked ([`terrain::FrameInfo::waiting_for`]).
         waiting_for: String,
         last_error: Option<String>,
+        /// What happened to the pyramid file, when something did (a truncation is why tiles
+        /// never arrive). Boxed: it is rare and large, and every render result carries room
+        /// for it.
+        file_change: Option<Box<crate::dem::FileChange>>,
     },
     /// The view can never complete with these streaming settings (found on its first frames,
     /// instead of waiting out the timeout).

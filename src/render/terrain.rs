@@ -851,6 +851,10 @@ impl TerrainRenderer {
                 return Err(RenderError::NotSettled {
                     timeout_s: timeout.as_secs_f64(),
                     waiting_for: info.waiting_for(),
+                    file_change: info
+                        .stream
+                        .as_ref()
+                        .and_then(|s| s.file_change.clone().map(Box::new)),
                     last_error: info.stream.and_then(|s| s.last_error),
                 });
             }

@@ -20,11 +20,13 @@
 //! ## The mmap SIGBUS risk
 //! A mapped file that another process truncates in place raises SIGBUS on the next access to
 //! a page past the new end. globe avoids it as far as a reader can: the length is validated at
-//! open, checked again (`fstat`) before every tile read, and every tile's CRC-32 is verified
-//! when it is read; globe itself never rewrites a pyramid in place (imports write a temporary
-//! file and rename it, so a mapped old file stays intact on its inode). What is left is a
-//! truncation racing a read between the `fstat` and the copy; do not truncate a pyramid that
-//! a viewer has open (replace it by renaming, as `globe-data import` does).
+//! open, each read first checks (`fstat`) that the file still reaches the tile's end, and every
+//! tile's CRC-32 is verified when it is read; globe itself never rewrites a pyramid in place
+//! (imports write a temporary file and rename it, so a mapped old file stays intact on its
+//! inode). The streamer's watcher reports what happened to the file (`crate::dem::FileChange`:
+//! replaced, deleted, truncated, appended to, modified). What is left is a truncation racing a
+//! read between the `fstat` and the copy; do not truncate a pyramid that a viewer has open
+//! (replace it by renaming, as `globe-data import` does).
 
 pub mod cache;
 pub mod source;
@@ -77,6 +79,9 @@ pub struct StreamSettings {
     pub backoff_ms: u64,
     /// Fault injection (tests, `--tile-latency-ms`, `--tile-fail-rate`).
     pub faults: FaultSettings,
+    /// How often the watcher looks at the file (one `fstat` and one `stat`): a change is
+    /// reported within about this long, at no cost per frame.
+    pub watch_interval: std::time::Duration,
 }
 
 /// Default decoded-tile budget: 256 MiB (≈ 680 tiles of 256² × avg/min/max).
@@ -92,6 +97,7 @@ impl Default for StreamSettings {
             retries: 6,
             backoff_ms: 5,
             faults: FaultSettings::default(),
+            watch_interval: std::time::Duration::from_secs(1),
         }
     }
 }

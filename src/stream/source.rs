@@ -6,6 +6,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Duration;
 
 use super::{TileError, TileKey};
+use crate::dem::FileChange;
 use crate::dem::pyramid::{Encoding, Plane, Pyramid};
 
 /// A decoded tile: the three planes (rows north to south, `tile_size²` codes each; codes past
@@ -41,10 +42,16 @@ impl TileData {
 /// Reads tiles. Called from tokio's blocking pool, so a read may block (that is the point).
 pub trait TileSource: Send + Sync {
     fn read(&self, key: TileKey) -> Result<TileData, TileError>;
+
+    /// What happened to the file behind the source since it was opened (the streamer's
+    /// watcher asks about once a second); None when nothing did or there is no file.
+    fn file_change(&self) -> Option<FileChange> {
+        None
+    }
 }
 
-/// Tiles from a memory-mapped pyramid: the file's length is re-checked before each read and the
-/// tile's CRC-32 verified (see "The mmap SIGBUS risk" in the module docs).
+/// Tiles from a memory-mapped pyramid: before each read, the file's length is checked to still
+/// reach the tile's end, and the tile's CRC-32 is verified (see "The mmap SIGBUS risk" in the module docs).
 pub struct MmapTileSource {
     pyramid: Arc<Pyramid>,
 }
@@ -61,11 +68,11 @@ impl TileSource for MmapTileSource {
             key,
             message: e.to_string(),
         };
-        self.pyramid.check_length().map_err(err)?;
-        let view = self
-            .pyramid
-            .tile_verified(key.level as usize, key.tx as usize, key.ty as usize)
+        let (level, tx, ty) = (key.level as usize, key.tx as usize, key.ty as usize);
+        self.pyramid
+            .check_tile_in_file(level, tx, ty)
             .map_err(err)?;
+        let view = self.pyramid.tile_verified(level, tx, ty).map_err(err)?;
         Ok(TileData {
             key,
             tile_size: view.tile_size,
@@ -74,6 +81,10 @@ impl TileSource for MmapTileSource {
             min: view.min.into_owned(),
             max: view.max.into_owned(),
         })
+    }
+
+    fn file_change(&self) -> Option<FileChange> {
+        self.pyramid.file_change()
     }
 }
 
@@ -122,6 +133,10 @@ impl<S: TileSource> TileSource for FaultyTileSource<S> {
             return Err(TileError::Injected { key });
         }
         self.inner.read(key)
+    }
+
+    fn file_change(&self) -> Option<FileChange> {
+        self.inner.file_change()
     }
 }
 

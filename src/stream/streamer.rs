@@ -7,6 +7,10 @@
 //! retry. A dispatcher task starts the best-priority queued read whenever fewer than
 //! `max_in_flight` are running; reads run on the blocking pool (the source may block on I/O or
 //! injected latency) and failed reads are retried with exponential back-off, then reported.
+//!
+//! A watcher task looks at the source's file every `watch_interval` (one `fstat`, one `stat`:
+//! cheap, and off the render thread) and hands each change of its state over once
+//! ([`TileStreamer::poll_file`]).
 
 use std::collections::{HashMap, HashSet};
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
@@ -17,6 +21,7 @@ use tokio::sync::{Notify, Semaphore};
 
 use super::source::{TileData, TileSource};
 use super::{Priority, StreamSettings, TileError, TileKey};
+use crate::dem::FileChange;
 
 /// What a finished request delivers.
 #[derive(Debug)]
@@ -108,6 +113,7 @@ pub struct TileStreamer {
     runtime: Option<tokio::runtime::Runtime>,
     shared: Arc<Shared>,
     completions: mpsc::Receiver<Completion>,
+    file_states: mpsc::Receiver<Option<FileChange>>,
 }
 
 impl TileStreamer {
@@ -125,12 +131,21 @@ impl TileStreamer {
             counters: Counters::default(),
         });
         let (tx, rx) = mpsc::channel();
+        let (file_tx, file_rx) = mpsc::channel();
+        runtime.spawn(watch(source.clone(), file_tx, settings.watch_interval));
         runtime.spawn(dispatch(shared.clone(), source, tx, *settings));
         Ok(Self {
             runtime: Some(runtime),
             shared,
             completions: rx,
+            file_states: file_rx,
         })
+    }
+
+    /// The file's states the watcher saw since the last call, oldest first, each once: a
+    /// change ([`FileChange`]) or None, back as it was opened (never blocks).
+    pub fn poll_file(&self) -> Vec<Option<FileChange>> {
+        self.file_states.try_iter().collect()
     }
 
     /// States everything the view lacks, with priorities (lower is sooner). Tiles already
@@ -229,6 +244,29 @@ impl Drop for TileStreamer {
         if let Some(rt) = self.runtime.take() {
             // Reads sleeping in injected latency are not waited for.
             rt.shutdown_background();
+        }
+    }
+}
+
+/// Looks at the source's file every `interval` and sends each new state once; ends with the
+/// runtime or when nobody listens.
+async fn watch(
+    source: Arc<dyn TileSource>,
+    tx: mpsc::Sender<Option<FileChange>>,
+    interval: Duration,
+) {
+    let mut last: Option<FileChange> = None;
+    loop {
+        tokio::time::sleep(interval.max(Duration::from_millis(1))).await;
+        let src = source.clone();
+        let Ok(now) = tokio::task::spawn_blocking(move || src.file_change()).await else {
+            return;
+        };
+        if now != last {
+            if tx.send(now.clone()).is_err() {
+                return;
+            }
+            last = now;
         }
     }
 }

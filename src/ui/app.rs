@@ -122,6 +122,8 @@ struct App {
     error_overlay: Option<(Camera, egui::TextureHandle)>,
     /// The detail editor's window (opened from the panel).
     editor: Editor,
+    /// File changes already printed on stderr (each is printed once).
+    file_changes_printed: u64,
 }
 
 /// How long the viewer takes to fly the `flight` path.
@@ -160,6 +162,7 @@ impl App {
             opened: Instant::now(),
             error_overlay: None,
             editor,
+            file_changes_printed: 0,
         }
     }
 
@@ -206,6 +209,12 @@ impl App {
         let info = gpu
             .terrain
             .prepare(&gpu.ctx.queue, &mut encoder, &self.camera, width, height);
+        if let Some(st) = &info.stream {
+            for change in st.file_changes_after(self.file_changes_printed) {
+                eprintln!("globe viewer: {change}");
+            }
+            self.file_changes_printed = st.file_changes_total;
+        }
         let Some((output, actions, detail)) = self.run_panel(&info, terrain_here_m) else {
             return;
         };

@@ -617,6 +617,9 @@ fn stream_section(ui: &mut egui::Ui, st: &crate::render::dem_feed::FeedFrame, wa
                 .color(Color32::from_rgb(230, 90, 90)),
         );
     }
+    if let Some(change) = &st.file_change {
+        ui.label(RichText::new(change.to_string()).color(Color32::from_rgb(230, 170, 60)));
+    }
     if let Some(e) = &st.last_error {
         ui.label(RichText::new(format!("last error: {e}")).color(Color32::from_rgb(230, 90, 90)));
     }

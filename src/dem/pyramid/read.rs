@@ -6,9 +6,10 @@ use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
 use super::format::{Encoding, Extents, Header, LevelGeom, TileEntry};
-use crate::dem::DemError;
+use crate::dem::change::classify;
 use crate::dem::mapped::{MappedFile, OpenFile};
 use crate::dem::raster::GeoGrid;
+use crate::dem::{DemError, FileChange};
 
 /// Reads the stored code of (level, plane, row, col); `None` when the tile holding it is not
 /// at hand (a cache of streamed tiles). The map itself always has it.
@@ -332,6 +333,53 @@ impl Pyramid {
             });
         }
         Ok(())
+    }
+
+    /// Fails, naming the tile, when the file no longer reaches to the tile's end (truncated in
+    /// place after the open): touching those mapped pages would raise SIGBUS. One `fstat`, the
+    /// streamer's check before every read. A file that grew still holds the tile where it was,
+    /// and the tile's CRC says whether it still holds what it held, so growth is no error here
+    /// ([`Pyramid::check_length`], for `verify`, still calls it one).
+    pub fn check_tile_in_file(&self, level: usize, tx: usize, ty: usize) -> Result<(), DemError> {
+        let e = self.tile_entry(level, tx, ty)?;
+        let end = e.offset + e.len as u64;
+        let len = self.map.current_len()?;
+        if len < end {
+            return Err(DemError::Truncated {
+                path: self.path.clone(),
+                actual: len,
+                expected: end,
+                what: format!(
+                    "level {level} tile ({tx}, {ty}): the file was truncated in place after it \
+                     was opened (from {} bytes), so the tile is not read",
+                    self.header.file_len
+                ),
+            });
+        }
+        Ok(())
+    }
+
+    /// What happened to the file since it was opened (one `fstat` of the mapping's descriptor,
+    /// one `stat` of the path), or None when nothing did or the bytes are in memory. The
+    /// streamer's watcher asks about once a second; see [`FileChange`].
+    pub fn file_change(&self) -> Option<FileChange> {
+        let seen = self.map.observe()?;
+        classify(&self.path, seen, |len| {
+            let mut levels = Vec::new();
+            let mut unavailable = 0;
+            for (level, l) in self.header.levels.iter().enumerate() {
+                let first = self.first_tile[level];
+                let gone = self.header.index[first..first + l.tile_count()]
+                    .iter()
+                    .filter(|e| e.offset + e.len as u64 > len)
+                    .count();
+                if gone > 0 {
+                    levels.push(level as u32);
+                    unavailable += gone;
+                }
+            }
+            (unavailable, self.header.index.len(), levels)
+        })
     }
 
     fn index_of(&self, level: usize, tx: usize, ty: usize) -> Result<usize, DemError> {
