@@ -158,7 +158,7 @@ pub struct Setting {
 /// The settings the report runs: the defaults, then one parameter changed at a time (mesh
 /// resolution n and m, texture size, each map-transform form), the level overlay on (to
 /// show what an overlay costs; every other row has overlays off), and the error budget swept
-/// over 0.5–8 px, and geomipmapping near the viewer. Changes that make invalid settings are
+/// over 0.5–8 px, geomipmapping near the viewer and the projected grid. Changes that make invalid settings are
 /// left out.
 pub fn settings_grid(base: &ClipmapSettings) -> Vec<Setting> {
     let mut changes = vec![Change::Default];
@@ -173,8 +173,9 @@ pub fn settings_grid(base: &ClipmapSettings) -> Vec<Setting> {
     changes.push(Change::OverlayLevels);
     // The knob's sweep: error against time as a curve (the default budget is the base row).
     changes.extend([50, 100, 400, 800].map(Change::ErrorBudget));
-    // The close-up method against the clipmap alone (README "Close-up modes").
+    // The close-up methods against the clipmap alone (README "Close-up modes").
     changes.push(Change::Lod(LodMode::Geomip));
+    changes.push(Change::Lod(LodMode::Projgrid));
     (changes.into_iter())
         .map(|change| Setting {
             change,
@@ -189,12 +190,13 @@ pub const PAPER_GRIDS: [(u32, u32); 5] =
     [(1024, 512), (512, 256), (600, 600), (300, 900), (400, 1900)];
 
 /// The rows of `--projgrid-tables`: the clipmap as the base row, then every paper grid size
-/// uniform and warped, each without and with ray casting.
+/// uniform and warped, first without ray casting (Table 1), then with it (Table 2, the costly
+/// half on a CPU rasteriser, last so an interrupted run keeps the whole of Table 1).
 pub fn projgrid_grid(base: &ClipmapSettings) -> Vec<Setting> {
     let mut changes = vec![Change::Default];
-    for warp in [false, true] {
-        for (cols, rows) in PAPER_GRIDS {
-            for ray_cast in [false, true] {
+    for ray_cast in [false, true] {
+        for warp in [false, true] {
+            for (cols, rows) in PAPER_GRIDS {
                 changes.push(Change::ProjGrid {
                     cols,
                     rows,

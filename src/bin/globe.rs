@@ -288,8 +288,10 @@ struct LodArgs {
     /// are ray cast, pixels (> 0).
     #[arg(long, value_name = "PX", default_value_t = 1.0)]
     gamma: f64,
-    /// The projected grid warped by importance (more cells where the mesh errs) or uniform.
-    #[arg(long, value_name = "on|off", default_value = "on")]
+    /// The projected grid warped by importance (more cells where the error bound is high) or
+    /// uniform in the projector's (ψ, θ̃), already denser near the viewer; off by default: the
+    /// uniform grid measured better (README "Close-up modes").
+    #[arg(long, value_name = "on|off", default_value = "off")]
     warp: Switch,
     /// Ray casting of the projected grid's cells whose error exceeds γ.
     #[arg(long = "ray-cast", value_name = "on|off", default_value = "on")]
