@@ -256,23 +256,21 @@ impl DemFeed {
     /// The terrain height at (lat, lon) from the finest level at hand (the finest level's tile
     /// is asked for first); sea level before anything has arrived.
     pub fn height_at_m(&self, lat_deg: f64, lon_deg: f64) -> f64 {
-        for level in 0..self.dem.pyramid().level_count() {
-            let got = self.with_codes(level == 0, CAMERA_PRIORITY, true, |code| {
-                self.dem.sample_m_with(lat_deg, lon_deg, level, code)
-            });
-            if let Ok(h) = got {
-                return h;
-            }
-        }
-        0.0
+        self.height_from_tiles_m(lat_deg, lon_deg, true)
     }
 
     /// The height a close-up mesh's vertex takes: as [`DemFeed::height_at_m`], but neither
     /// asking for tiles nor holding them as the camera's own (the clipmap's levels ask for
     /// what is drawn; a grid's tens of thousands of vertices are not the camera's ground).
     fn height_drawn_base_m(&self, lat_deg: f64, lon_deg: f64) -> f64 {
+        self.height_from_tiles_m(lat_deg, lon_deg, false)
+    }
+
+    /// The height from the finest level at hand; `camera`: the camera's own ground (its
+    /// finest tile asked for, and held as critical).
+    fn height_from_tiles_m(&self, lat_deg: f64, lon_deg: f64, camera: bool) -> f64 {
         for level in 0..self.dem.pyramid().level_count() {
-            let got = self.with_codes(false, CAMERA_PRIORITY, false, |code| {
+            let got = self.with_codes(camera && level == 0, CAMERA_PRIORITY, camera, |code| {
                 self.dem.sample_m_with(lat_deg, lon_deg, level, code)
             });
             if let Ok(h) = got {
