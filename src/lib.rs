@@ -34,6 +34,7 @@ pub mod progress;
 pub mod render;
 pub mod report;
 pub mod scenes;
+pub mod soak;
 pub mod stream;
 pub mod terrain;
 pub mod ui;

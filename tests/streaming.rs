@@ -83,6 +83,7 @@ fn flight_options(latency_ms: u64, fail_rate: f64, cache_bytes: u64) -> BenchOpt
                 latency_ms,
                 fail_rate,
                 seed: 7,
+                ..Default::default()
             },
             ..StreamSettings::default()
         },

@@ -349,18 +349,15 @@ impl LodArgs {
 /// How DEM tiles stream from the pyramid file, and faults to inject.
 #[derive(Args, Clone, Debug)]
 struct StreamArgs {
-    /// Latency added to every tile read, in milliseconds (fault injection). `globe bench`
-    /// takes a comma-separated list and runs once per value, in one process.
-    #[arg(
-        long = "tile-latency-ms",
-        value_name = "MS",
-        value_delimiter = ',',
-        default_value = "0"
-    )]
-    tile_latency_ms: Vec<u64>,
+    /// Latency added to every tile read, in milliseconds (fault injection): MS, or MIN-MAX to
+    /// draw each read's latency from that range. `globe bench` takes a comma-separated list
+    /// and runs once per value, in one process. Default 0 (`--scene soak`: 0-200).
+    #[arg(long = "tile-latency-ms", value_name = "MS", value_delimiter = ',')]
+    tile_latency_ms: Vec<LatencyMs>,
     /// Fraction of tile reads that fail, 0…1 (fault injection; failed reads are retried).
-    #[arg(long = "tile-fail-rate", value_name = "F", default_value_t = 0.0)]
-    tile_fail_rate: f64,
+    /// Default 0 (`--scene soak`: 0.05).
+    #[arg(long = "tile-fail-rate", value_name = "F")]
+    tile_fail_rate: Option<f64>,
     /// Budget of the decoded-tile cache in MiB. The tiles the frame in progress needs (the
     /// camera's ground, tiles on their way to the GPU) stay even beyond it: 0 keeps only those.
     #[arg(long = "cache-mb", value_name = "MIB", default_value_t = globe::stream::DEFAULT_CACHE_BYTES >> 20)]
@@ -378,16 +375,77 @@ struct StreamArgs {
     max_in_flight: usize,
 }
 
-impl StreamArgs {
-    /// The settings with the `i`-th latency of the list.
-    fn settings_with_latency(&self, latency_ms: u64) -> anyhow::Result<StreamSettings> {
-        if !(0.0..=1.0).contains(&self.tile_fail_rate) {
-            bail!(
-                "--tile-fail-rate must be between 0 and 1 (got {})",
-                self.tile_fail_rate
-            );
+/// A tile read's added latency: fixed, or drawn per read from a range.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct LatencyMs {
+    min: u64,
+    max: u64,
+}
+
+impl std::fmt::Display for LatencyMs {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        if self.max > self.min {
+            write!(f, "{}-{}", self.min, self.max)
+        } else {
+            write!(f, "{}", self.min)
         }
-        if self.tile_fail_rate >= 1.0 {
+    }
+}
+
+impl std::str::FromStr for LatencyMs {
+    type Err = String;
+
+    fn from_str(text: &str) -> Result<Self, String> {
+        let number = |t: &str| {
+            t.trim()
+                .parse::<u64>()
+                .map_err(|_| format!("`{text}` is not MS or MIN-MAX in whole milliseconds"))
+        };
+        match text.split_once('-') {
+            None => number(text).map(|ms| LatencyMs { min: ms, max: ms }),
+            Some((a, b)) => {
+                let (min, max) = (number(a)?, number(b)?);
+                if max < min {
+                    return Err(format!(
+                        "`{text}`: the range's maximum is below its minimum"
+                    ));
+                }
+                Ok(LatencyMs { min, max })
+            }
+        }
+    }
+}
+
+/// The latency the faults inject, as `--tile-latency-ms` takes it.
+fn latency_of(f: &FaultSettings) -> LatencyMs {
+    LatencyMs {
+        min: f.latency_ms,
+        max: f.latency_max_ms.max(f.latency_ms),
+    }
+}
+
+impl StreamArgs {
+    /// The latencies asked for, or `default` when none were.
+    fn latencies(&self, default: LatencyMs) -> Vec<LatencyMs> {
+        if self.tile_latency_ms.is_empty() {
+            vec![default]
+        } else {
+            self.tile_latency_ms.clone()
+        }
+    }
+
+    /// The settings with one latency of the list and the fail rate (`default_fail_rate` when
+    /// none was given).
+    fn settings_with(
+        &self,
+        latency: LatencyMs,
+        default_fail_rate: f64,
+    ) -> anyhow::Result<StreamSettings> {
+        let fail_rate = self.tile_fail_rate.unwrap_or(default_fail_rate);
+        if !(0.0..=1.0).contains(&fail_rate) {
+            bail!("--tile-fail-rate must be between 0 and 1 (got {fail_rate})");
+        }
+        if fail_rate >= 1.0 {
             bail!("--tile-fail-rate 1 would fail every read: no tile could ever load");
         }
         // The smallest --gpu-tiles that works depends on the view: the renderer names it on
@@ -408,8 +466,9 @@ impl StreamArgs {
             uploads_per_frame: self.uploads_per_frame,
             max_in_flight: self.max_in_flight,
             faults: FaultSettings {
-                latency_ms,
-                fail_rate: self.tile_fail_rate,
+                latency_ms: latency.min,
+                latency_max_ms: latency.max,
+                fail_rate,
                 seed: 0x5EED,
             },
             ..StreamSettings::default()
@@ -418,8 +477,8 @@ impl StreamArgs {
 
     /// The settings, for commands that take one latency.
     fn settings(&self) -> anyhow::Result<StreamSettings> {
-        match self.tile_latency_ms.as_slice() {
-            [one] => self.settings_with_latency(*one),
+        match self.latencies(LatencyMs { min: 0, max: 0 }).as_slice() {
+            [one] => self.settings_with(*one, 0.0),
             _ => bail!("--tile-latency-ms takes one value here (a list only with `globe bench`)"),
         }
     }
@@ -503,7 +562,10 @@ struct BenchArgs {
     /// Scene to benchmark (see `globe scenes`); `flight`: the path from space down to the
     /// ground, played over --frames frames from a cold start; `jump`: the time from a jump
     /// (aircraft → everest) to full detail, and the pipeline's tiles/s and MB/s against the
-    /// raw read rate of the same file (--throughput-tiles tiles each).
+    /// raw read rate of the same file (--throughput-tiles tiles each); `soak`: a seeded
+    /// random flight for --seconds under failing, slow reads (default 5 % and 0-200 ms),
+    /// stopping at the end of every leg to compare the settled frame with a fault-free
+    /// render, holding memory to its budgets; exits with failure when a check fails.
     #[arg(long, default_value = "aircraft", conflicts_with = "camera")]
     scene: String,
     /// Benchmark this view instead of a scene (named "camera" in the outputs). Same form as
@@ -541,6 +603,19 @@ struct BenchArgs {
     no_error: bool,
     #[command(flatten)]
     measure_limit: MeasureArgs,
+    /// `--scene soak`: seconds of flight on its clock (settle points not counted).
+    #[arg(long, value_name = "S")]
+    seconds: Option<f64>,
+    /// `--scene soak`: the seed of its random path and of the faults it injects.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// `--scene soak`: write the memory trace (camera height, anonymous RSS, decoded-tile
+    /// cache, GPU tiles against time, each with its budget) to this PNG.
+    #[arg(long, value_name = "FILE")]
+    plot: Option<PathBuf>,
+    /// `--scene soak`: how long a settle point may wait for its view to complete.
+    #[arg(long = "settle-timeout", value_name = "S", default_value_t = 120.0)]
+    settle_timeout: f64,
     /// Print one JSON object per run on stdout (one line each) instead of a summary.
     #[arg(long)]
     json: bool,
@@ -869,13 +944,28 @@ fn bench(args: &BenchArgs) -> anyhow::Result<ExitCode> {
     if args.camera.is_none() && args.scene == globe::bench::JUMP {
         return bench_jump(args);
     }
+    if args.camera.is_none() && args.scene == globe::soak::NAME {
+        return bench_soak(args);
+    }
+    if args.seconds.is_some() || args.plot.is_some() {
+        bail!(
+            "--seconds and --plot are for `--scene {}`",
+            globe::soak::NAME
+        );
+    }
     // Names are checked before the adapter starts; the library looks them up the same way.
     let name = match args.camera {
         Some(_) => CAMERA_VIEW_NAME,
         None if is_flight => globe::scenes::flight::NAME,
         None => {
             globe::scenes::find(&args.scene)
-                .map_err(|e| e.also_known(&[globe::scenes::flight::NAME, globe::bench::JUMP]))?
+                .map_err(|e| {
+                    e.also_known(&[
+                        globe::scenes::flight::NAME,
+                        globe::bench::JUMP,
+                        globe::soak::NAME,
+                    ])
+                })?
                 .name
         }
     };
@@ -890,7 +980,8 @@ fn bench(args: &BenchArgs) -> anyhow::Result<ExitCode> {
     let terrain = args.dem.open()?;
     eprintln!("terrain: {}", terrain.describe());
     let mut runs = Vec::new();
-    for &latency in &args.stream.tile_latency_ms {
+    let latencies = args.stream.latencies(LatencyMs { min: 0, max: 0 });
+    for &latency in &latencies {
         let options = globe::bench::BenchOptions {
             scene: name.to_owned(),
             camera: args.camera,
@@ -899,7 +990,7 @@ fn bench(args: &BenchArgs) -> anyhow::Result<ExitCode> {
             width: args.width,
             height: args.height,
             settings: settings.clone(),
-            stream: args.stream.settings_with_latency(latency)?,
+            stream: args.stream.settings_with(latency, 0.0)?,
             measure_error: !args.no_error,
             passthrough: args.passthrough,
             look: args.look.settings(),
@@ -945,7 +1036,7 @@ fn bench(args: &BenchArgs) -> anyhow::Result<ExitCode> {
         measuring.finish();
         print_file_changes("globe bench", run.last_stream());
         if let Some(path) = &args.csv {
-            let path = if args.stream.tile_latency_ms.len() > 1 {
+            let path = if latencies.len() > 1 {
                 let stem = path.file_stem().unwrap_or_default().to_string_lossy();
                 path.with_file_name(format!("{stem}-{latency}ms.csv"))
             } else {
@@ -967,8 +1058,8 @@ fn bench(args: &BenchArgs) -> anyhow::Result<ExitCode> {
         for r in &runs {
             let cpu = r.cpu_ms().map(|s| s.0).unwrap_or(f64::NAN);
             eprintln!(
-                "  latency {:>5} ms: {cpu:8.3} ms  ratio {:.3}",
-                r.options.stream.faults.latency_ms,
+                "  latency {:>7} ms: {cpu:8.3} ms  ratio {:.3}",
+                latency_of(&r.options.stream.faults).to_string(),
                 cpu / base
             );
         }
@@ -984,7 +1075,7 @@ fn print_bench(run: &globe::bench::BenchRun) {
         o.width,
         o.height,
         run.frames.len(),
-        o.stream.faults.latency_ms,
+        latency_of(&o.stream.faults),
         o.stream.faults.fail_rate
     );
     if let Some((m, lo, hi)) = run.cpu_ms() {
@@ -1049,6 +1140,155 @@ fn print_bench(run: &globe::bench::BenchRun) {
             if run.settled { "complete" } else { "TIMED OUT" }
         );
     }
+}
+
+fn bench_soak(args: &BenchArgs) -> anyhow::Result<ExitCode> {
+    use globe::soak;
+    let seconds = args.seconds.unwrap_or(600.0);
+    if !(seconds > 0.0 && seconds.is_finite()) {
+        bail!("--seconds must be above 0 (got {seconds})");
+    }
+    if !(args.settle_timeout > 0.0 && args.settle_timeout.is_finite()) {
+        bail!(
+            "--settle-timeout must be above 0 (got {})",
+            args.settle_timeout
+        );
+    }
+    let (lo, hi) = soak::DEFAULT_LATENCY_MS;
+    let [latency] = args.stream.latencies(LatencyMs { min: lo, max: hi })[..] else {
+        bail!("--scene soak takes one --tile-latency-ms (MS or MIN-MAX)");
+    };
+    let mut stream = args
+        .stream
+        .settings_with(latency, soak::DEFAULT_FAIL_RATE)?;
+    stream.faults.seed = args.seed;
+    let fps = args.fps.unwrap_or(0.0);
+    if !(fps >= 0.0 && fps.is_finite()) {
+        bail!("--fps must be 0 or more (got {fps})");
+    }
+    let ctx = GpuContext::headless().context("cannot benchmark without a graphics adapter")?;
+    eprintln!("adapter: {}", ctx.adapter_description());
+    let terrain = args.dem.open()?;
+    eprintln!("terrain: {}", terrain.describe());
+    let options = soak::SoakOptions {
+        seconds,
+        seed: args.seed,
+        legs: soak::LegSeconds::default(),
+        width: args.width,
+        height: args.height,
+        settings: args.mesh.settings()?,
+        stream,
+        look: args.look.settings(),
+        lod: args.lod.settings()?,
+        frame_interval: (fps > 0.0).then(|| std::time::Duration::from_secs_f64(1.0 / fps)),
+        settle_timeout: std::time::Duration::from_secs_f64(args.settle_timeout),
+        rss_slack_bytes: soak::DEFAULT_RSS_SLACK_BYTES,
+    };
+    eprintln!(
+        "soak: seed {}, {seconds} s, {}×{}, fail rate {}, latency {latency} ms, cache {} MiB, \
+         {} GPU tiles",
+        args.seed,
+        args.width,
+        args.height,
+        stream.faults.fail_rate,
+        stream.cache_bytes >> 20,
+        stream.gpu_tiles
+    );
+    let mut progress = Progress::new("soak", seconds.ceil() as u64, Some("s"));
+    let run = soak::run(&ctx, &terrain, &options, |p| {
+        progress.note(format!(
+            "{} frames, {} settle points ({} not equal), {} reads in frames",
+            p.frames, p.settle_points, p.settle_points_bad, p.reads_in_frames
+        ));
+        progress.set(p.t_s as u64);
+    })?;
+    progress.finish();
+    if let Some(path) = &args.csv {
+        std::fs::write(path, run.frames_csv())
+            .with_context(|| format!("cannot write {}", path.display()))?;
+    }
+    if let Some(path) = &args.plot {
+        run.write_plot(path)
+            .with_context(|| format!("cannot write {}", path.display()))?;
+    }
+    let f = run.findings();
+    if args.json {
+        println!("{}", run.to_json());
+    } else {
+        print_soak(&run, &f);
+    }
+    let failures = f.failures();
+    if failures.is_empty() {
+        Ok(ExitCode::SUCCESS)
+    } else {
+        for line in &failures {
+            eprintln!("globe bench: soak failed: {line}");
+        }
+        Ok(ExitCode::FAILURE)
+    }
+}
+
+fn print_soak(run: &globe::soak::SoakRun, f: &globe::soak::SoakFindings) {
+    let mib = |b: u64| b as f64 / 1048576.0;
+    let opt_mib = |b: Option<u64>| b.map_or("n/a".to_owned(), |b| format!("{:.1}", mib(b)));
+    println!(
+        "soak, seed {}: {:.0} s flown in {:.0} s, {} frames, {} legs ({} jumps; {})",
+        run.options.seed,
+        f.flown_s,
+        f.wall_s,
+        f.frames,
+        f.legs,
+        f.jumps,
+        f.places
+            .iter()
+            .map(|(p, n)| format!("{} {n}", p.name()))
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
+    println!(
+        "  frames that read the file: {}; CPU ms per frame median {:.2}, p99 {:.2}, max {:.2}",
+        f.frames_reading_the_file, f.cpu_ms_median, f.cpu_ms_p99, f.cpu_ms_max
+    );
+    println!(
+        "  settle points: {}, not settled {}, differing from the fault-free render {} (max {} px); \
+         settle s median {:.2}, max {:.2}",
+        f.settle_points,
+        f.settle_failures,
+        f.settle_points_differing,
+        f.max_differing_px,
+        f.settle_s_median,
+        f.settle_s_max
+    );
+    for p in run.settles.iter().filter(|p| p.differing_px != Some(0)) {
+        println!(
+            "    leg {} ({}) at {:.1} s: {}",
+            p.leg,
+            p.place.name(),
+            p.t_s,
+            p.error
+                .clone()
+                .unwrap_or_else(|| format!("{} px differ", p.differing_px.unwrap_or(0)))
+        );
+    }
+    println!(
+        "  tiles loaded {}, failed reads {}, retries {}",
+        f.tiles_loaded, f.tiles_failed, f.retries
+    );
+    println!(
+        "  memory, MiB: cache max {:.1} of {:.1}; GPU tiles max {} of {}; anonymous RSS max {} \
+         of budget {} (baseline {}, slope over the second half {} MiB/min); file-backed RSS max {}",
+        mib(f.cache_bytes_max),
+        mib(f.cache_budget),
+        f.gpu_tiles_max,
+        f.gpu_capacity,
+        opt_mib(f.rss_anon_max),
+        opt_mib(f.rss_anon_budget),
+        opt_mib(f.rss_anon_baseline),
+        f.rss_anon_slope_mib_per_min
+            .map_or("n/a".to_owned(), |s| format!("{s:+.2}")),
+        opt_mib(f.rss_file_max)
+    );
+    println!("  {}", if f.passed() { "PASSED" } else { "FAILED" });
 }
 
 fn bench_jump(args: &BenchArgs) -> anyhow::Result<ExitCode> {

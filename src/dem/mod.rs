@@ -13,6 +13,7 @@
 mod change;
 pub mod ehdr;
 pub mod embedded;
+pub mod frame_reads;
 mod mapped;
 pub mod netcdf;
 pub mod pyramid;

@@ -117,10 +117,10 @@ pub struct Drawn {
 }
 
 /// The font family every text of the plots uses: DejaVu Sans, registered once.
-const FONT: &str = "sans-serif";
+pub(crate) const FONT: &str = "sans-serif";
 static FONT_BYTES: &[u8] = include_bytes!("../../assets/fonts/DejaVuSans.ttf");
 
-fn register_embedded_font() {
+pub(crate) fn register_embedded_font() {
     static ONCE: Once = Once::new();
     ONCE.call_once(|| {
         // The file is in the repository and parsed by a test: it cannot fail to parse.

@@ -883,7 +883,9 @@ impl TerrainRenderer {
         width_px: u32,
         height_px: u32,
     ) -> FrameInfo {
-        // From the tiles at hand when streaming: a frame never waits for the file.
+        // From the tiles at hand when streaming: a frame never waits for the file (a read of
+        // it from in here is counted: `dem::frame_reads`).
+        let _frame = crate::dem::frame_reads::frame_scope();
         let view = ViewPlan::new(camera, width_px, height_px, self.query());
         let mut clipmap = ClipmapPlan::new(
             &view,

@@ -93,6 +93,10 @@ impl TileSource for MmapTileSource {
 pub struct FaultSettings {
     /// Added to every read (a slow disk or a remote store), blocking like real I/O.
     pub latency_ms: u64,
+    /// With a value above `latency_ms`, each read's latency is drawn uniformly from
+    /// `latency_ms..=latency_max_ms` instead (seeded, like the failures): a store whose
+    /// answers arrive out of order.
+    pub latency_max_ms: u64,
     /// Fraction of reads that fail, 0…1, decided by a seeded generator (repeatable runs).
     pub fail_rate: f64,
     pub seed: u64,
@@ -100,7 +104,17 @@ pub struct FaultSettings {
 
 impl FaultSettings {
     pub fn is_active(&self) -> bool {
-        self.latency_ms > 0 || self.fail_rate > 0.0
+        self.latency_ms > 0 || self.latency_max_ms > 0 || self.fail_rate > 0.0
+    }
+
+    /// The latency of read number `n`, in milliseconds.
+    pub fn latency_of_read_ms(&self, n: u64) -> u64 {
+        if self.latency_max_ms <= self.latency_ms {
+            return self.latency_ms;
+        }
+        let span = self.latency_max_ms - self.latency_ms + 1;
+        let draw = splitmix64(!self.seed ^ n.wrapping_mul(0xD1B5_4A32_D192_ED03));
+        self.latency_ms + draw % span
     }
 }
 
@@ -123,10 +137,11 @@ impl<S: TileSource> FaultyTileSource<S> {
 
 impl<S: TileSource> TileSource for FaultyTileSource<S> {
     fn read(&self, key: TileKey) -> Result<TileData, TileError> {
-        if self.settings.latency_ms > 0 {
-            std::thread::sleep(Duration::from_millis(self.settings.latency_ms));
-        }
         let n = self.reads.fetch_add(1, Ordering::Relaxed);
+        let latency = self.settings.latency_of_read_ms(n);
+        if latency > 0 {
+            std::thread::sleep(Duration::from_millis(latency));
+        }
         let draw = splitmix64(self.settings.seed ^ n.wrapping_mul(0x9E37_79B9_7F4A_7C15));
         let uniform = (draw >> 11) as f64 / (1u64 << 53) as f64;
         if uniform < self.settings.fail_rate {
@@ -154,5 +169,34 @@ pub fn open_source(pyramid: Arc<Pyramid>, faults: FaultSettings) -> Arc<dyn Tile
         Arc::new(FaultyTileSource::new(mmap, faults))
     } else {
         Arc::new(mmap)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_latency_range_draws_each_read_within_it_repeatably() {
+        let f = FaultSettings {
+            latency_ms: 20,
+            latency_max_ms: 200,
+            seed: 9,
+            ..Default::default()
+        };
+        let draws: Vec<u64> = (0..4000).map(|n| f.latency_of_read_ms(n)).collect();
+        assert!(draws.iter().all(|&ms| (20..=200).contains(&ms)));
+        // Spread over the range, both ends reached, and the same again for the same seed.
+        assert_eq!(*draws.iter().min().unwrap(), 20);
+        assert_eq!(*draws.iter().max().unwrap(), 200);
+        let mean = draws.iter().sum::<u64>() as f64 / draws.len() as f64;
+        assert!((mean - 110.0).abs() < 5.0, "mean {mean}");
+        assert_eq!(draws[17], f.latency_of_read_ms(17));
+        // A fixed latency stays fixed.
+        let fixed = FaultSettings {
+            latency_ms: 50,
+            ..Default::default()
+        };
+        assert!((0..100).all(|n| fixed.latency_of_read_ms(n) == 50));
     }
 }

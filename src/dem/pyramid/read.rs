@@ -409,6 +409,7 @@ impl Pyramid {
     /// The raw payload of a tile (three planes of little-endian `i16`), unchecked.
     pub fn tile_bytes(&self, level: usize, tx: usize, ty: usize) -> Result<&[u8], DemError> {
         let e = self.tile_entry(level, tx, ty)?;
+        crate::dem::frame_reads::note_read();
         Ok(&self.map[e.offset as usize..e.offset as usize + e.len as usize])
     }
 
@@ -579,6 +580,7 @@ impl Pyramid {
         let i = self.first_tile[level] + (row / t) * l.tiles_x + col / t;
         let at = self.header.index[i].offset as usize
             + 2 * (p as usize * t * t + (row % t) * t + col % t);
+        crate::dem::frame_reads::note_read();
         i16::from_le_bytes([self.map[at], self.map[at + 1]])
     }
 

@@ -1,0 +1,83 @@
+//! The soak (`globe bench --scene soak`), short: a seeded random flight over the embedded
+//! Earth with one read in twenty failing and 0–200 ms per read, short legs so that it visits
+//! the ground, a pole, the antimeridian and jumps within seconds. Every settle point must equal
+//! a fault-free render, no frame may read the file, memory stays within its budgets. The
+//! ten-minute run over a 30″ pyramid is in README ("Soak").
+
+mod common;
+
+use std::time::Duration;
+
+use globe::clipmap::ClipmapSettings;
+use globe::dem::frame_reads;
+use globe::soak::{self, LegSeconds, Place, SoakOptions};
+use globe::stream::StreamSettings;
+use globe::terrain::Terrain;
+
+#[test]
+fn a_short_soak_holds_its_budgets_and_settles_to_the_fault_free_image() {
+    let Some((ctx, _guard)) = common::gpu() else {
+        return;
+    };
+    let terrain = Terrain::embedded_earth().unwrap();
+    let cache_bytes = 4 << 20;
+    let options = SoakOptions {
+        seconds: 14.0,
+        seed: 3,
+        legs: LegSeconds {
+            fly: (1.5, 2.5),
+            hold: (0.8, 1.2),
+            jump_fraction: 0.3,
+        },
+        width: 160,
+        height: 90,
+        settings: ClipmapSettings::default(),
+        stream: SoakOptions::default_faults(
+            StreamSettings {
+                // Ten tiles: the flight evicts.
+                cache_bytes,
+                ..StreamSettings::default()
+            },
+            3,
+        ),
+        look: Default::default(),
+        lod: Default::default(),
+        frame_interval: None,
+        settle_timeout: Duration::from_secs(120),
+        rss_slack_bytes: soak::DEFAULT_RSS_SLACK_BYTES,
+    };
+    let run = soak::run(ctx, &terrain, &options, |_| {}).unwrap();
+    let f = run.findings();
+    eprintln!("{}", run.to_json());
+    assert!(f.passed(), "{:?}", f.failures());
+    assert_eq!(f.frames_reading_the_file, 0);
+    assert!(f.settle_points >= 5, "{} settle points", f.settle_points);
+    assert!(run.settles.iter().all(|p| p.differing_px == Some(0)));
+    for place in [Place::Ground, Place::Pole, Place::Antimeridian] {
+        assert!(
+            run.settles.iter().any(|p| p.place == place),
+            "no settle point at {place:?}"
+        );
+    }
+    assert!(f.jumps >= 1);
+    assert!(f.retries > 0, "5 % of reads fail, yet none was retried");
+    assert!(f.cache_bytes_max <= cache_bytes);
+    assert!(f.rss_anon_max.is_some() == cfg!(target_os = "linux"));
+}
+
+/// The count behind "no frame reads the file" sees a real read: the terrain's height (read
+/// straight from the pyramid) asked for inside a frame scope counts, outside it does not.
+#[test]
+fn a_pyramid_read_inside_a_frame_is_counted() {
+    let terrain = Terrain::embedded_earth().unwrap();
+    let here = frame_reads::reads_in_frames_on_this_thread;
+    let before = here();
+    let h = terrain.height_at_lat_lon_m(27.988, 86.925);
+    assert!(h > 3000.0, "Everest at {h} m");
+    assert_eq!(here(), before);
+    {
+        let _frame = frame_reads::frame_scope();
+        terrain.height_at_lat_lon_m(45.65, 10.65);
+    }
+    assert!(here() > before, "a read in a frame was not counted");
+}
