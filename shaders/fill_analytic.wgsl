@@ -23,8 +23,7 @@ struct FillParams {
     extent: vec2<u32>,
     layer: u32,
     size: u32,
-    _pad0: u32,
-    _pad1: u32,
+    offset: vec2<u32>,  // the first texel, in grid steps from the reference point (the anchor)
     waves: array<Wave, ANALYTIC_SCALES>,
 }
 
@@ -36,7 +35,8 @@ fn cs_main(@builtin(global_invocation_id) id: vec3<u32>) {
     if id.x >= params.extent.x || id.y >= params.extent.y {
         return;
     }
-    let du = delta_unit_from(params.ref_trig, f32(id.x) * params.spacing.x, f32(id.y) * params.spacing.y);
+    let k = id.xy + params.offset;
+    let du = delta_unit_from(params.ref_trig, f32(k.x) * params.spacing.x, f32(k.y) * params.spacing.y);
     var h = 0.0;
     for (var k = 0u; k < ANALYTIC_SCALES; k++) {
         let w = params.waves[k];
@@ -53,6 +53,6 @@ fn cs_main(@builtin(global_invocation_id) id: vec3<u32>) {
         h += w.omega_a.w * sa * sb;
     }
     let slot = (params.slot0 + id.xy) % vec2<u32>(params.size);
-    h += detail_texel(id.xy, slot, params.layer);
+    h += detail_texel(k, slot, params.layer);
     textureStore(out_heights, slot, params.layer, vec4<f32>(h, 0.0, 0.0, 0.0));
 }

@@ -28,7 +28,7 @@ struct DemFillParams {
     cap_south: vec2<f32>,
     // metres = offset + quantum · code
     decode: vec2<f32>,
-    _pad: vec2<u32>,
+    offset: vec2<u32>,      // the first texel, in grid steps from base + frac (the anchor)
 }
 
 @group(0) @binding(0) var<uniform> params: DemFillParams;
@@ -71,8 +71,10 @@ fn cs_main(@builtin(global_invocation_id) id: vec3<u32>) {
     if id.x >= params.extent.x || id.y >= params.extent.y {
         return;
     }
-    let c_rel = params.frac.x + f32(id.x) * params.step.x;
-    let r_rel = params.frac.y + f32(id.y) * params.step.y;
+    // Steps from the anchor block's corner: the same f32 sums whichever dispatch fills a texel.
+    let k = id.xy + params.offset;
+    let c_rel = params.frac.x + f32(k.x) * params.step.x;
+    let r_rel = params.frac.y + f32(k.y) * params.step.y;
     let c_floor = floor(c_rel);
     let r_floor = floor(r_rel);
     let ci = params.base.x + i32(c_floor);
@@ -108,6 +110,6 @@ fn cs_main(@builtin(global_invocation_id) id: vec3<u32>) {
         }
     }
     let slot = (params.slot0 + id.xy) % vec2<u32>(params.size);
-    h += detail_texel(id.xy, slot, params.layer);
+    h += detail_texel(k, slot, params.layer);
     textureStore(out_heights, slot, params.layer, vec4<f32>(h, 0.0, 0.0, 0.0));
 }

@@ -26,12 +26,16 @@ struct NormalParams {
     size: u32,
     partial_count: u32,   // partial octaves the level's second texture holds
     quarter: u32,         // S/4 columns: a quarter turn when the grid holds a pole
-    angles: vec4<f32>,    // φ0, θ0 of the first grid point, dφ, dθ (radians)
-    trig: vec4<f32>,      // sin θ0, cos θ0, sin φ0, cos φ0 (from f64)
+    angles: vec4<f32>,    // φ0, θ0 of the anchor, dφ, dθ (radians)
+    trig: vec4<f32>,      // sin θ0, cos θ0, sin φ0, cos φ0 of the anchor (from f64)
     radius_m: f32,
     pole_north: i32,      // job row of θ = 0 (−1: none)
     pole_south: i32,      // job row of θ = π (−1: none)
-    _pad: u32,
+    offset_x: u32,        // the first texel, in grid steps from the anchor (angles, trig)
+    offset_y: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
 }
 
 @group(0) @binding(0) var<uniform> params: NormalParams;
@@ -73,8 +77,8 @@ fn cs_main(@builtin(global_invocation_id) id: vec3<u32>) {
     let dtheta = params.angles.w;
     // sin/cos of θ and φ from the f64 anchor and the small offsets (rows past a pole keep
     // going: θ < 0 or θ > π give the point across it, with the frame that goes with it).
-    let a = f32(j) * dtheta;
-    let b = f32(i) * dphi;
+    let a = f32(j + i32(params.offset_y)) * dtheta;
+    let b = f32(i + i32(params.offset_x)) * dphi;
     // trig.wgsl's forms: a and b are as small as 1e-9 rad on the finest levels.
     let sca = sin_cos_precise(a);
     let scb = sin_cos_precise(b);

@@ -34,7 +34,7 @@ use crate::dem::frame_reads;
 use crate::geo::camera::Camera;
 use crate::look::LookSettings;
 use crate::measure::MeasureError;
-use crate::render::offscreen::{COLOR_FORMAT, OffscreenFrame};
+use crate::render::offscreen::{COLOR_FORMAT, OffscreenFrame, RenderedFrame};
 use crate::render::{GpuContext, TerrainRenderer};
 use crate::scenes::SCENE_FOV_Y_DEG;
 use crate::stream::{FaultSettings, StreamSettings};
@@ -444,6 +444,9 @@ pub struct SoakOptions {
     /// How long a settle point may wait for its view to complete.
     pub settle_timeout: Duration,
     pub rss_slack_bytes: u64,
+    /// Where to write the three images of a settle point that differs (flying renderer,
+    /// reference, fresh renderer), if anywhere.
+    pub mismatch_dir: Option<std::path::PathBuf>,
 }
 
 impl SoakOptions {
@@ -530,6 +533,37 @@ pub struct SettlePoint {
     pub error: Option<String>,
     /// Pixels differing from the fault-free render (None when either failed).
     pub differing_px: Option<usize>,
+    /// Of those, pixels differing visibly: by more than [`VISIBLE_CHANNEL_DIFF`] in a channel.
+    pub visibly_differing_px: Option<usize>,
+    /// Where they differ: what a third, fresh renderer (fault-free, default budgets) says.
+    pub mismatch: Option<Mismatch>,
+}
+
+/// A channel difference (0–255) above this is visible; the goldens' tolerance.
+pub const VISIBLE_CHANNEL_DIFF: u8 = 8;
+
+fn pixels_differing_by_more_than(a: &RenderedFrame, b: &RenderedFrame, tolerance: u8) -> usize {
+    a.rgba
+        .chunks_exact(4)
+        .zip(b.rgba.chunks_exact(4))
+        .filter(|(p, q)| {
+            p.iter()
+                .zip(q.iter())
+                .any(|(x, y)| x.abs_diff(*y) > tolerance)
+        })
+        .count()
+}
+
+/// A settle point that differs, seen by a third renderer made for it: whichever of the two
+/// long-lived renderers it disagrees with carries state from its history.
+#[derive(Clone, Debug, Serialize)]
+pub struct Mismatch {
+    pub fresh_vs_flying_px: usize,
+    pub fresh_vs_reference_px: usize,
+    /// Flying, reference, fresh.
+    pub triangles: [u64; 3],
+    pub levels: [(u32, u32); 3],
+    pub height_above_terrain_m: [f64; 3],
 }
 
 /// What the soak found, against its budgets.
@@ -550,6 +584,8 @@ pub struct SoakFindings {
     pub settle_failures: usize,
     pub settle_points_differing: usize,
     pub max_differing_px: usize,
+    /// The largest share of an image's pixels that differ visibly at a settle point.
+    pub max_visibly_differing_share: f64,
     pub settle_s_median: f64,
     pub settle_s_max: f64,
     pub cache_budget: u64,
@@ -707,7 +743,37 @@ pub fn run(
                 let want = target
                     .render_settled_within(ctx, &mut reference, camera, options.settle_timeout)
                     .map_err(|e| format!("the fault-free reference: {e}"))?;
-                Ok(pixels_differing(&got, &want))
+                let differing = pixels_differing(&got, &want);
+                let visibly = pixels_differing_by_more_than(&got, &want, VISIBLE_CHANNEL_DIFF);
+                let mut mismatch = None;
+                if differing > 0 {
+                    let mut fresh = make(StreamSettings {
+                        faults: FaultSettings::default(),
+                        ..StreamSettings::default()
+                    })
+                    .map_err(|e| e.to_string())?;
+                    let third = target
+                        .render_settled_within(ctx, &mut fresh, camera, options.settle_timeout)
+                        .map_err(|e| format!("a fresh renderer: {e}"))?;
+                    let frames = [&got, &want, &third];
+                    mismatch = Some(Mismatch {
+                        fresh_vs_flying_px: pixels_differing(&third, &got),
+                        fresh_vs_reference_px: pixels_differing(&third, &want),
+                        triangles: frames.map(|f| f.info.triangles()),
+                        levels: frames
+                            .map(|f| (f.info.selection.coarsest, f.info.selection.finest)),
+                        height_above_terrain_m: frames.map(|f| f.info.height_above_terrain_m),
+                    });
+                    if let Some(dir) = &options.mismatch_dir {
+                        for (frame, who) in frames.iter().zip(["flying", "reference", "fresh"]) {
+                            let png = dir.join(format!("settle-{leg:03}-{who}.png"));
+                            frame
+                                .save_png(&png)
+                                .map_err(|e| format!("cannot write {}: {e}", png.display()))?;
+                        }
+                    }
+                }
+                Ok((differing, visibly, mismatch))
             });
             SettlePoint {
                 t_s,
@@ -723,7 +789,9 @@ pub fn run(
                 ],
                 settle_s,
                 settled: compared.is_ok(),
-                differing_px: compared.as_ref().ok().copied(),
+                differing_px: compared.as_ref().ok().map(|c| c.0),
+                visibly_differing_px: compared.as_ref().ok().map(|c| c.1),
+                mismatch: compared.as_ref().ok().and_then(|c| c.2.clone()),
                 error: compared.err(),
             }
         };
@@ -855,6 +923,13 @@ impl SoakRun {
                 .filter_map(|p| p.differing_px)
                 .max()
                 .unwrap_or(0),
+            max_visibly_differing_share: self
+                .settles
+                .iter()
+                .filter_map(|p| p.visibly_differing_px)
+                .max()
+                .unwrap_or(0) as f64
+                / (self.options.width as f64 * self.options.height as f64),
             settle_s_median: quantile(&settle_s, 0.5),
             settle_s_max: settle_s.last().copied().unwrap_or(f64::NAN),
             cache_budget,

@@ -25,7 +25,7 @@ fn plan(
     held: &[Option<LevelGrid>],
 ) -> (ViewPlan, ClipmapPlan) {
     let view = ViewPlan::new(camera, WIDTH, HEIGHT, terrain);
-    let clipmap = ClipmapPlan::new(&view, settings, held, terrain.height_range_m(), false);
+    let clipmap = ClipmapPlan::new(&view, settings, held, terrain.height_range_m(), false, true);
     (view, clipmap)
 }
 

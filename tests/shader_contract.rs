@@ -428,11 +428,11 @@ struct DemFillParamsWrongType {
     cap_north: [f32; 2],
     cap_south: [f32; 2],
     decode: [f32; 2],
-    _pad: [u32; 2],
+    offset: [u32; 2],
 }
 globe::gpu_struct!(DemFillParamsWrongType as "DemFillParams" {
     base, frac, step, slot0, extent, layer, size, page_base, tiles_x, cols, rows, tile_size,
-    wraps, cap_north, cap_south, decode,
+    wraps, cap_north, cap_south, decode, offset,
 });
 
 #[test]

@@ -613,6 +613,10 @@ struct BenchArgs {
     /// cache, GPU tiles against time, each with its budget) to this PNG.
     #[arg(long, value_name = "FILE")]
     plot: Option<PathBuf>,
+    /// `--scene soak`: write the images of every settle point that differs from the
+    /// fault-free render here (flying, reference, and a fresh renderer's).
+    #[arg(long = "mismatch-dir", value_name = "DIR")]
+    mismatch_dir: Option<PathBuf>,
     /// `--scene soak`: how long a settle point may wait for its view to complete.
     #[arg(long = "settle-timeout", value_name = "S", default_value_t = 120.0)]
     settle_timeout: f64,
@@ -1166,6 +1170,10 @@ fn bench_soak(args: &BenchArgs) -> anyhow::Result<ExitCode> {
     if !(fps >= 0.0 && fps.is_finite()) {
         bail!("--fps must be 0 or more (got {fps})");
     }
+    if let Some(dir) = &args.mismatch_dir {
+        std::fs::create_dir_all(dir)
+            .with_context(|| format!("cannot create --mismatch-dir {}", dir.display()))?;
+    }
     let ctx = GpuContext::headless().context("cannot benchmark without a graphics adapter")?;
     eprintln!("adapter: {}", ctx.adapter_description());
     let terrain = args.dem.open()?;
@@ -1183,6 +1191,7 @@ fn bench_soak(args: &BenchArgs) -> anyhow::Result<ExitCode> {
         frame_interval: (fps > 0.0).then(|| std::time::Duration::from_secs_f64(1.0 / fps)),
         settle_timeout: std::time::Duration::from_secs_f64(args.settle_timeout),
         rss_slack_bytes: soak::DEFAULT_RSS_SLACK_BYTES,
+        mismatch_dir: args.mismatch_dir.clone(),
     };
     eprintln!(
         "soak: seed {}, {seconds} s, {}×{}, fail rate {}, latency {latency} ms, cache {} MiB, \
@@ -1250,12 +1259,13 @@ fn print_soak(run: &globe::soak::SoakRun, f: &globe::soak::SoakFindings) {
         f.frames_reading_the_file, f.cpu_ms_median, f.cpu_ms_p99, f.cpu_ms_max
     );
     println!(
-        "  settle points: {}, not settled {}, differing from the fault-free render {} (max {} px); \
-         settle s median {:.2}, max {:.2}",
+        "  settle points: {}, not settled {}, differing from the fault-free render {} (max {} px, \
+         visibly at most {:.3} % of the image); settle s median {:.2}, max {:.2}",
         f.settle_points,
         f.settle_failures,
         f.settle_points_differing,
         f.max_differing_px,
+        100.0 * f.max_visibly_differing_share,
         f.settle_s_median,
         f.settle_s_max
     );
@@ -1265,10 +1275,25 @@ fn print_soak(run: &globe::soak::SoakRun, f: &globe::soak::SoakFindings) {
             p.leg,
             p.place.name(),
             p.t_s,
-            p.error
-                .clone()
-                .unwrap_or_else(|| format!("{} px differ", p.differing_px.unwrap_or(0)))
+            p.error.clone().unwrap_or_else(|| format!(
+                "{} px differ, {} of them visibly (a channel by more than {})",
+                p.differing_px.unwrap_or(0),
+                p.visibly_differing_px.unwrap_or(0),
+                globe::soak::VISIBLE_CHANNEL_DIFF
+            ))
         );
+        if let Some(m) = &p.mismatch {
+            println!(
+                "      a fresh renderer differs from the flying one by {} px, from the reference \
+                 by {} px; triangles {:?}, levels {:?}, height above terrain {:?} m \
+                 (flying, reference, fresh)",
+                m.fresh_vs_flying_px,
+                m.fresh_vs_reference_px,
+                m.triangles,
+                m.levels,
+                m.height_above_terrain_m
+            );
+        }
     }
     println!(
         "  tiles loaded {}, failed reads {}, retries {}",

@@ -46,6 +46,40 @@ impl GridRect {
     pub fn texels(&self) -> u64 {
         self.width as u64 * self.height as u64
     }
+
+    /// The rectangle cut along a lattice of `block` × `block` grid points, each piece with its
+    /// block's corner (a multiple of `block` in gx and gy). The fills compute a texel from its
+    /// block's corner: a texel's f32 sums are then a function of its grid point alone, not of
+    /// the rectangle that happened to hold it when it was filled, so a settled view does not
+    /// depend on the path to it (`globe bench --scene soak`).
+    pub fn anchored_pieces(&self, block: i64) -> Vec<(GridRect, [i64; 2])> {
+        let cuts = |start: i64, len: u32| {
+            let end = start + len as i64;
+            let mut out = Vec::new();
+            let mut a = start;
+            while a < end {
+                let corner = a.div_euclid(block) * block;
+                let b = (corner + block).min(end);
+                out.push((a, (b - a) as u32, corner));
+                a = b;
+            }
+            out
+        };
+        let rows = cuts(self.gy0, self.height);
+        let mut out = Vec::new();
+        for (x, w, cx) in cuts(self.gx0, self.width) {
+            for &(y, h, cy) in &rows {
+                let piece = GridRect {
+                    gx0: x,
+                    gy0: y,
+                    width: w,
+                    height: h,
+                };
+                out.push((piece, [cx, cy]));
+            }
+        }
+        out
+    }
 }
 
 impl LevelGrid {
@@ -63,6 +97,13 @@ impl LevelGrid {
             phi += PI;
         }
         (phi.rem_euclid(TAU), theta.clamp(0.0, PI))
+    }
+
+    /// The side of the blocks whose corners the fills compute their texels from
+    /// ([`GridRect::anchored_pieces`]): S/2, which divides the φ period, so a block's corner
+    /// is the same point on either side of the 2π wrap.
+    pub fn anchor_block(&self) -> i64 {
+        (self.size as i64 / 2).max(1)
     }
 
     /// φ period of the grid in columns: S·2^k columns make 2π.
@@ -206,6 +247,55 @@ impl LevelGrid {
 
 #[cfg(test)]
 mod tests {
+    /// The pieces tile the rectangle, each within one block whose corner is its anchor: a
+    /// grid point gets the same anchor from any rectangle that holds it.
+    #[test]
+    fn anchored_pieces_tile_the_rectangle_one_block_each() {
+        let block = 64;
+        let rects = [
+            GridRect {
+                gx0: -70,
+                gy0: 5,
+                width: 200,
+                height: 129,
+            },
+            GridRect {
+                gx0: 0,
+                gy0: -64,
+                width: 64,
+                height: 64,
+            },
+            GridRect {
+                gx0: 127,
+                gy0: 1000,
+                width: 1,
+                height: 3,
+            },
+        ];
+        for r in rects {
+            let mut seen = std::collections::HashMap::new();
+            for (p, [ax, ay]) in r.anchored_pieces(block) {
+                assert_eq!((ax.rem_euclid(block), ay.rem_euclid(block)), (0, 0));
+                assert!(p.gx0 >= ax && p.gx0 + p.width as i64 <= ax + block, "{p:?}");
+                assert!(
+                    p.gy0 >= ay && p.gy0 + p.height as i64 <= ay + block,
+                    "{p:?}"
+                );
+                for x in p.gx0..p.gx0 + p.width as i64 {
+                    for y in p.gy0..p.gy0 + p.height as i64 {
+                        assert!(seen.insert((x, y), (ax, ay)).is_none(), "({x}, {y}) twice");
+                        // The anchor is the point's own block corner, whatever the rectangle.
+                        assert_eq!(
+                            (ax, ay),
+                            (x.div_euclid(block) * block, y.div_euclid(block) * block)
+                        );
+                    }
+                }
+            }
+            assert_eq!(seen.len() as u64, r.texels());
+        }
+    }
+
     use super::*;
 
     #[test]

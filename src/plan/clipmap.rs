@@ -72,13 +72,18 @@ impl PartialEq for DensityMap {
 
 impl ClipmapPlan {
     /// Levels by the visibility bounds and the windows they need. `held[level]` is the window
-    /// each level texture holds now (`None`: never filled).
+    /// each level texture holds now (`None`: never filled). `keep_spans`: a level keeps its
+    /// held φ span while that still fits (hysteresis for a moving camera, so that a span
+    /// change does not rewrite a level back and forth); without it every level takes its
+    /// ideal span, as a renderer with no past would (a camera at rest: the settled view is
+    /// then the same whatever the path to it).
     pub fn new(
         view: &ViewPlan,
         settings: &ClipmapSettings,
         held: &[Option<LevelGrid>],
         height_range_m: (f64, f64),
         draw_all_levels: bool,
+        keep_spans: bool,
     ) -> Self {
         let (hmin, hmax) = height_range_m;
         let theta_max =
@@ -103,7 +108,7 @@ impl ClipmapPlan {
                     settings.texture_size,
                     view.phi_v_rad,
                     view.theta_v_rad,
-                    old.as_ref(),
+                    old.as_ref().filter(|_| keep_spans),
                 );
                 LevelFill {
                     grid,

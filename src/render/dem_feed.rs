@@ -544,8 +544,9 @@ impl DemFeed {
         ((angle.to_degrees() * 1000.0) as u64).min((1 << 40) - 1)
     }
 
-    /// The dispatches (one per piece of `rect` between the poles' fold lines and, for a
-    /// regional grid, the 360° wrap) and the tiles they read.
+    /// The dispatches (one per piece of `rect` within a block of the level's anchor lattice,
+    /// between the poles' fold lines and, for a regional grid, the 360° wrap) and the tiles
+    /// they read.
     fn jobs_for_rect(
         &self,
         grid: &LevelGrid,
@@ -554,6 +555,24 @@ impl DemFeed {
         out: &mut Vec<DemFillJob>,
         tiles: &mut Vec<TileKey>,
     ) {
+        for (piece, anchor) in rect.anchored_pieces(grid.anchor_block()) {
+            self.jobs_for_piece(grid, &piece, anchor, level, out, tiles);
+        }
+    }
+
+    /// [`DemFeed::jobs_for_rect`] for a piece within one block: every parameter is computed
+    /// at the block's corner `anchor`, so a texel's f32 arithmetic does not depend on which
+    /// dispatch filled it (a settled view is the same whatever the path to it).
+    fn jobs_for_piece(
+        &self,
+        grid: &LevelGrid,
+        rect: &GridRect,
+        anchor: [i64; 2],
+        level: usize,
+        out: &mut Vec<DemFillJob>,
+        tiles: &mut Vec<TileKey>,
+    ) {
+        let [ax, ay] = anchor;
         use std::f64::consts::PI;
         let pyr = self.dem.pyramid();
         let g = pyr.grid(level);
@@ -585,15 +604,17 @@ impl DemFeed {
             if yb <= ya {
                 continue;
             }
-            let theta = ya as f64 * grid.dtheta_rad;
+            // The piece's rows are linear in gy within its fold: continued to the anchor's row.
+            let theta = ay as f64 * grid.dtheta_rad;
             let (theta, extra_phi, sign) = match fold {
                 Fold::None => (theta, 0.0, 1.0),
                 Fold::North => (-theta, PI, -1.0),
                 Fold::South => (2.0 * PI - theta, PI, -1.0),
             };
             let lat = 90.0 - theta.to_degrees();
-            let row = (g.lat0_deg - lat) / g.dlat_deg;
             let drow = sign * grid.dtheta_rad.to_degrees() / g.dlat_deg;
+            let row_anchor = (g.lat0_deg - lat) / g.dlat_deg;
+            let row = row_anchor + (ya - ay) as f64 * drow;
             let h = (yb - ya) as u32;
             // Column pieces: one for a wrapping grid (the shader wraps), split at the 360°
             // wrap for a regional one.
@@ -615,16 +636,20 @@ impl DemFeed {
             }
             for (x_off, w, d) in col_pieces {
                 let col = d / g.dlon_deg - 0.5;
-                let (col_floor, row_floor) = (col.floor(), row.floor());
+                // The same column line continued back to the anchor's column.
+                let offset_x = rect.gx0 + x_off as i64 - ax;
+                let col_anchor = col - offset_x as f64 * dcol;
+                let (col_floor, row_floor) = (col_anchor.floor(), row_anchor.floor());
                 let mut base_col = col_floor as i64;
                 if wraps {
                     base_col = base_col.rem_euclid(cols);
                 }
                 out.push(DemFillJob {
                     grid: *grid,
-                    origin: [rect.gx0 + x_off as i64, ya],
+                    origin: anchor,
+                    offset: [offset_x as u32, (ya - ay) as u32],
                     base: [base_col, row_floor as i64],
-                    frac: [col - col_floor, row - row_floor],
+                    frac: [col_anchor - col_floor, row_anchor - row_floor],
                     step: [dcol, drow],
                     slot0: [
                         (rect.gx0 + x_off as i64).rem_euclid(s) as u32,

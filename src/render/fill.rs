@@ -182,25 +182,35 @@ impl FillPass {
         jobs: &[FillJob],
         timestamps: Option<wgpu::ComputePassTimestampWrites<'_>>,
     ) -> u64 {
+        // Each rectangle cut along its level's anchor lattice (`GridRect::anchored_pieces`).
+        let pieces: Vec<(&FillJob, GridRect, [i64; 2])> = jobs
+            .iter()
+            .flat_map(|job| {
+                job.rect
+                    .anchored_pieces(job.grid.anchor_block())
+                    .into_iter()
+                    .map(move |(piece, anchor)| (job, piece, anchor))
+            })
+            .collect();
         assert!(
-            jobs.len() as u32 <= self.params.capacity(),
+            pieces.len() as u32 <= self.params.capacity(),
             "more fill jobs than the parameter buffer holds"
         );
-        if jobs.is_empty() {
+        if pieces.is_empty() {
             return 0;
         }
         let bind_group = self
             .bind_group
             .as_ref()
             .expect("fill target set before encoding");
-        let blocks: Vec<FillParams> = jobs
+        let blocks: Vec<FillParams> = pieces
             .iter()
-            .map(|job| FillParams::new(planet, &job.grid, &job.rect))
+            .map(|(job, piece, anchor)| FillParams::new(planet, &job.grid, piece, *anchor))
             .collect();
         self.params.write(queue, &blocks);
-        let details: Vec<_> = jobs
+        let details: Vec<_> = pieces
             .iter()
-            .map(|job| detail.block(&job.grid, job.rect.gx0, job.rect.gy0))
+            .map(|(job, _, anchor)| detail.block(&job.grid, anchor[0], anchor[1]))
             .collect();
         detail.write(queue, &details);
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
@@ -209,15 +219,15 @@ impl FillPass {
         });
         pass.set_pipeline(&self.pipeline);
         let mut texels = 0;
-        for (i, job) in jobs.iter().enumerate() {
+        for (i, (_, piece, _)) in pieces.iter().enumerate() {
             pass.set_bind_group(0, bind_group, &[self.params.offset(i)]);
             detail.set(&mut pass, i);
             pass.dispatch_workgroups(
-                job.rect.width.div_ceil(shader::WORKGROUP_SIZE),
-                job.rect.height.div_ceil(shader::WORKGROUP_SIZE),
+                piece.width.div_ceil(shader::WORKGROUP_SIZE),
+                piece.height.div_ceil(shader::WORKGROUP_SIZE),
                 1,
             );
-            texels += job.rect.texels();
+            texels += piece.texels();
         }
         texels
     }

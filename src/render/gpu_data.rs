@@ -239,7 +239,8 @@ pub struct FillParams {
     pub extent: [u32; 2],
     pub layer: u32,
     pub size: u32,
-    pub _pad: [u32; 2],
+    /// The first texel, in grid steps from the reference point (the anchor).
+    pub offset: [u32; 2],
     pub waves: [WaveParams; SCALES],
 }
 
@@ -263,7 +264,8 @@ pub struct DemFillParams {
     pub cap_north: [f32; 2],
     pub cap_south: [f32; 2],
     pub decode: [f32; 2],
-    pub _pad: [u32; 2],
+    /// The first texel, in grid steps from the point `base`/`frac` give (the anchor).
+    pub offset: [u32; 2],
 }
 
 /// `NormalParams` in `shaders/fill_normals.wgsl`: one per dispatch of the normal pass.
@@ -284,15 +286,25 @@ pub struct NormalParams {
     /// Job rows of θ = 0 and θ = π, −1 where the job has none.
     pub pole_north: i32,
     pub pole_south: i32,
-    pub _pad: u32,
+    /// The first texel, in grid steps from the anchor (`angles`, `trig`).
+    pub offset_x: u32,
+    pub offset_y: u32,
+    pub _pad: [u32; 3],
 }
 
 impl NormalParams {
     /// The normals of `rect` of `grid` (rows past a pole unfolded), whose level holds
-    /// `partial_count` partial octaves.
-    pub fn new(grid: &LevelGrid, rect: &GridRect, radius_m: f64, partial_count: u32) -> Self {
-        let phi0 = rect.gx0 as f64 * grid.dphi_rad;
-        let theta0 = rect.gy0 as f64 * grid.dtheta_rad;
+    /// `partial_count` partial octaves; `rect` lies in one anchor block, whose corner
+    /// `anchor` the angles are taken from (the same f32 sums whichever dispatch it is).
+    pub fn new(
+        grid: &LevelGrid,
+        rect: &GridRect,
+        anchor: [i64; 2],
+        radius_m: f64,
+        partial_count: u32,
+    ) -> Self {
+        let phi0 = anchor[0] as f64 * grid.dphi_rad;
+        let theta0 = anchor[1] as f64 * grid.dtheta_rad;
         let (st, ct) = theta0.sin_cos();
         let (sp, cp) = phi0.sin_cos();
         let s = grid.size as i64;
@@ -323,7 +335,9 @@ impl NormalParams {
             radius_m: radius_m as f32,
             pole_north: row(0),
             pole_south: row(south),
-            _pad: 0,
+            offset_x: (rect.gx0 - anchor[0]) as u32,
+            offset_y: (rect.gy0 - anchor[1]) as u32,
+            _pad: [0; 3],
         }
     }
 }
@@ -617,13 +631,15 @@ gpu_struct!(LevelUniforms as "LevelUniforms" {
 });
 gpu_struct!(NormalParams as "NormalParams" {
     slot0, extent, layer, size, partial_count, quarter, angles, trig, radius_m, pole_north,
-    pole_south,
+    pole_south, offset_x, offset_y,
 });
 gpu_struct!(WaveParams as "Wave" { omega_a, omega_b, phases });
-gpu_struct!(FillParams as "FillParams" { ref_trig, spacing, slot0, extent, layer, size, waves });
+gpu_struct!(FillParams as "FillParams" {
+    ref_trig, spacing, slot0, extent, layer, size, offset, waves,
+});
 gpu_struct!(DemFillParams as "DemFillParams" {
     base, frac, step, slot0, extent, layer, size, page_base, tiles_x, cols, rows, tile_size,
-    wraps, cap_north, cap_south, decode,
+    wraps, cap_north, cap_south, decode, offset,
 });
 gpu_struct!(RingVertex as "RingVertex" {
     p_tilde, one_minus_cos, theta_tilde_rad, ring_t, level, seam_side,
@@ -952,11 +968,17 @@ pub fn level_uniforms(
 }
 
 impl FillParams {
-    /// One rectangle of the analytic planet's fill: its waves relative to the rectangle's first
-    /// grid point, so the GPU adds only small angle offsets.
-    pub fn new(planet: &AnalyticPlanet, grid: &LevelGrid, rect: &GridRect) -> Self {
-        let phi_r = rect.gx0 as f64 * grid.dphi_rad;
-        let theta_r = rect.gy0 as f64 * grid.dtheta_rad;
+    /// One rectangle of the analytic planet's fill, within one anchor block: its waves
+    /// relative to the block's corner `anchor`, so the GPU adds only small angle offsets, the
+    /// same ones whichever dispatch fills a texel.
+    pub fn new(
+        planet: &AnalyticPlanet,
+        grid: &LevelGrid,
+        rect: &GridRect,
+        anchor: [i64; 2],
+    ) -> Self {
+        let phi_r = anchor[0] as f64 * grid.dphi_rad;
+        let theta_r = anchor[1] as f64 * grid.dtheta_rad;
         let (st, ct) = theta_r.sin_cos();
         let (sp, cp) = phi_r.sin_cos();
         let s = grid.size as i64;
@@ -967,7 +989,7 @@ impl FillParams {
             extent: [rect.width, rect.height],
             layer: grid.level,
             size: grid.size,
-            _pad: [0; 2],
+            offset: [(rect.gx0 - anchor[0]) as u32, (rect.gy0 - anchor[1]) as u32],
             waves: planet
                 .waves_at(phi_r, theta_r, band_limit_texel_m(grid, planet.radius_m))
                 .map(|w| WaveParams::from(&w)),
@@ -996,11 +1018,14 @@ impl From<&WaveAt> for WaveParams {
 /// a pole and at a regional grid's 360° wrap).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct DemFillJob {
-    /// The level's grid and the grid point (gx, gy) of the job's first texel (the detail's
-    /// reference point; rows past a pole unfolded).
+    /// The level's grid and the grid point (gx, gy) every parameter is computed at: the
+    /// corner of the anchor block the job lies in (the detail's reference point; rows past a
+    /// pole unfolded).
     pub grid: LevelGrid,
     pub origin: [i64; 2],
-    /// Pyramid pixel (col, row) of the job's first grid point: integer part and fraction.
+    /// The job's first texel, in grid steps from `origin`.
+    pub offset: [u32; 2],
+    /// Pyramid pixel (col, row) of `origin`: integer part and fraction.
     pub base: [i64; 2],
     pub frac: [f64; 2],
     /// Pixels per grid step (d col / d gx, d row / d gy).
@@ -1047,7 +1072,7 @@ impl From<&DemFillJob> for DemFillParams {
             cap_north: pair(j.cap_north),
             cap_south: pair(j.cap_south),
             decode: [j.decode_offset_m as f32, j.decode_quantum_m as f32],
-            _pad: [0; 2],
+            offset: j.offset,
         }
     }
 }

@@ -143,11 +143,16 @@ impl NormalPass {
             .map(|j| normal_rect(&j.grid, &j.rect))
             .zip(jobs)
             .filter(|(r, _)| r.texels() > 0)
-            .map(|(r, j)| {
-                (
-                    NormalParams::new(&j.grid, &r, radius_m, partials(j.grid.level)),
-                    r,
-                )
+            .flat_map(|(r, j)| {
+                let partial_count = partials(j.grid.level);
+                r.anchored_pieces(j.grid.anchor_block())
+                    .into_iter()
+                    .map(move |(piece, anchor)| {
+                        (
+                            NormalParams::new(&j.grid, &piece, anchor, radius_m, partial_count),
+                            piece,
+                        )
+                    })
             })
             .collect();
         assert!(

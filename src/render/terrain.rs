@@ -148,6 +148,8 @@ pub struct TerrainRenderer {
     pub atmosphere: Atmosphere,
     /// Seconds of wave motion (0 in PNGs and measurements; the viewer's clock).
     pub look_time_s: f64,
+    /// The camera of the last frame prepared (a camera at rest drops the φ-span hysteresis).
+    last_camera: Option<Camera>,
     /// Debug/benchmark: draw with the pass-through pipeline instead of the terrain's.
     pub use_passthrough: bool,
     /// Measurement: shade every bump octave whatever its size on screen (the naive policy the
@@ -205,6 +207,15 @@ struct WirePipelines {
     /// The projected grid's, without and with ray casting (built when first needed).
     grid: Option<GridPipelines>,
 }
+
+/// Fill dispatches a level may need in one frame. A level rewrites at most 2 rectangles of
+/// at most S × S texels, each cut along the anchor lattice of S/2 blocks
+/// (`GridRect::anchored_pieces`): 3 × 3 pieces; the DEM fill cuts further at the poles' fold
+/// lines (2 more rows of pieces) and, for a regional grid, at the 360° wrap (1 more column);
+/// a normal rectangle is widened by a texel (4 × 4 pieces).
+const ANALYTIC_JOBS_PER_LEVEL: u32 = 2 * 3 * 3;
+const DEM_JOBS_PER_LEVEL: u32 = 2 * 4 * 5;
+const NORMAL_JOBS_PER_LEVEL: u32 = 2 * 4 * 4;
 
 impl TerrainRenderer {
     /// A renderer with the default streaming settings.
@@ -294,12 +305,11 @@ impl TerrainRenderer {
             dimension: Some(wgpu::TextureViewDimension::D2Array),
             ..Default::default()
         });
-        // Up to 2 rectangles per level, each split (DEM) in up to 3 row and 2 column pieces.
         let mut detail_resources = DetailResources::new(
             device,
             terrain.detail().cloned(),
             settings.blend_fraction as f64,
-            12 * settings.levels,
+            DEM_JOBS_PER_LEVEL * settings.levels,
         );
         detail_resources.bind(device, &partials_view);
         let normals = device.create_texture(&wgpu::TextureDescriptor {
@@ -333,7 +343,7 @@ impl TerrainRenderer {
         });
         let normal_pass = NormalPass::new(
             device,
-            2 * settings.levels,
+            NORMAL_JOBS_PER_LEVEL * settings.levels,
             &heights_view,
             &partials_view,
             &normals_view,
@@ -501,7 +511,11 @@ impl TerrainRenderer {
         };
         let look = LookSettings::default();
         let (pipelines, passthrough) = pipeline_parts.build(device, look);
-        let mut fill = FillPass::new(device, 2 * settings.levels, &detail_resources);
+        let mut fill = FillPass::new(
+            device,
+            ANALYTIC_JOBS_PER_LEVEL * settings.levels,
+            &detail_resources,
+        );
         fill.set_target(device, &heights_view);
         let grids = vec![None; settings.levels as usize];
         let feed = match terrain.base() {
@@ -510,7 +524,7 @@ impl TerrainRenderer {
                     device,
                     dem.clone(),
                     stream,
-                    12 * settings.levels,
+                    DEM_JOBS_PER_LEVEL * settings.levels,
                     &detail_resources,
                 )?;
                 feed.bind(device, &heights_view);
@@ -540,6 +554,7 @@ impl TerrainRenderer {
             look_resources,
             atmosphere: Atmosphere::earth(radius_m),
             look_time_s: 0.0,
+            last_camera: None,
             use_passthrough: false,
             naive_bump: false,
             fill_timestamps: None,
@@ -887,12 +902,17 @@ impl TerrainRenderer {
         // it from in here is counted: `dem::frame_reads`).
         let _frame = crate::dem::frame_reads::frame_scope();
         let view = ViewPlan::new(camera, width_px, height_px, self.query());
+        // At rest (the same camera twice), levels take their ideal φ spans: what is drawn then
+        // does not depend on where the camera came from.
+        let at_rest = self.last_camera == Some(*camera);
+        self.last_camera = Some(*camera);
         let mut clipmap = ClipmapPlan::new(
             &view,
             &self.settings,
             &self.grids,
             self.query().height_range_m(),
             self.draw_all_levels,
+            !at_rest,
         );
 
         // The fill's pass starts the fill timing, the normal pass ends it (query 3 is written
