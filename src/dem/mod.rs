@@ -13,13 +13,19 @@
 mod change;
 pub mod ehdr;
 pub mod embedded;
+pub mod geotiff;
+pub mod hgt;
 mod mapped;
+pub mod mosaic;
 pub mod netcdf;
 pub mod pyramid;
 pub mod raster;
 
 pub use change::FileChange;
 pub use ehdr::{EhdrMosaic, EhdrRaster};
+pub use geotiff::GeoTiffRaster;
+pub use hgt::HgtRaster;
+pub use mosaic::RasterMosaic;
 pub use netcdf::{NetcdfFile, NetcdfRaster};
 pub use pyramid::{Pyramid, PyramidBuilder};
 pub use raster::{GeoGrid, RasterSource};

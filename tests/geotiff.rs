@@ -1,0 +1,499 @@
+//! GeoTIFF / COG import (issue 15 items 3 and 4): files written by GDAL itself from ETOPO5
+//! (`gdal_translate -of GTiff` in strips and tiles, Deflate/LZW/none, Int16/UInt16/Float32,
+//! `-of COG`), read by globe and compared with `gdallocationinfo` at the corners, along every
+//! edge and at seeded random points; and the bad inputs, each a clear error.
+//!
+//! Needs GDAL's command-line tools and ETOPO5 (Debian `gdal-bin`, `ferret-datasets`): without
+//! them the GDAL tests are skipped, unless `GLOBE_REQUIRE_DATA=1` makes that a failure.
+
+mod gdal_common;
+
+use std::path::{Path, PathBuf};
+
+use gdal_common::{Agreement, Rng, compare_with_gdal, etopo5, gdal, gdal_ready};
+use globe::dem::pyramid::{Pyramid, PyramidBuilder};
+use globe::dem::{DemError, GeoTiffRaster, RasterSource};
+
+/// A small window of the Alps and the Po plain (all land: UInt16 holds it), resampled from
+/// ETOPO5 to 97 × 61 pixels so strips and tiles end part-way.
+const WINDOW: [&str; 6] = ["-projwin", "8", "47", "12", "45", "-outsize", "97"];
+
+fn translate(dir: &Path, name: &str, args: &[&str]) -> PathBuf {
+    let out = dir.join(name);
+    let mut all: Vec<String> = vec!["-q".into()];
+    all.extend(WINDOW.iter().map(|s| s.to_string()));
+    all.extend(["61", "-r", "bilinear", "-a_srs", "EPSG:4326"].map(String::from));
+    all.extend(args.iter().map(|s| s.to_string()));
+    all.push(etopo5().display().to_string());
+    all.push(out.display().to_string());
+    gdal("gdal_translate", &all);
+    out
+}
+
+/// The GDAL-written variants: (file name, gdal_translate options, what it exercises).
+const VARIANTS: &[(&str, &[&str])] = &[
+    (
+        "int16-deflate-strips.tif",
+        &[
+            "-ot",
+            "Int16",
+            "-co",
+            "COMPRESS=DEFLATE",
+            "-co",
+            "BLOCKYSIZE=7",
+        ],
+    ),
+    (
+        "uint16-lzw-predictor-strips.tif",
+        &[
+            "-ot",
+            "UInt16",
+            "-co",
+            "COMPRESS=LZW",
+            "-co",
+            "PREDICTOR=2",
+            "-co",
+            "BLOCKYSIZE=5",
+        ],
+    ),
+    (
+        "float32-deflate-fp-predictor-tiles.tif",
+        &[
+            "-ot",
+            "Float32",
+            "-co",
+            "TILED=YES",
+            "-co",
+            "BLOCKXSIZE=16",
+            "-co",
+            "BLOCKYSIZE=16",
+            "-co",
+            "COMPRESS=DEFLATE",
+            "-co",
+            "PREDICTOR=3",
+        ],
+    ),
+    (
+        "int16-lzw-tiles.tif",
+        &[
+            "-ot",
+            "Int16",
+            "-co",
+            "TILED=YES",
+            "-co",
+            "BLOCKXSIZE=32",
+            "-co",
+            "BLOCKYSIZE=16",
+            "-co",
+            "COMPRESS=LZW",
+        ],
+    ),
+    (
+        "int16-big-endian-uncompressed.tif",
+        &[
+            "-ot",
+            "Int16",
+            "-co",
+            "ENDIANNESS=BIG",
+            "-co",
+            "BLOCKYSIZE=9",
+        ],
+    ),
+    (
+        "float32-uncompressed-tiles.tif",
+        &[
+            "-ot",
+            "Float32",
+            "-co",
+            "TILED=YES",
+            "-co",
+            "BLOCKXSIZE=16",
+            "-co",
+            "BLOCKYSIZE=32",
+        ],
+    ),
+    (
+        "uint16-pixel-is-point.tif",
+        &[
+            "-ot",
+            "UInt16",
+            "-mo",
+            "AREA_OR_POINT=Point",
+            "-co",
+            "COMPRESS=DEFLATE",
+        ],
+    ),
+    (
+        "cog-int16-deflate.tif",
+        &[
+            "-of",
+            "COG",
+            "-ot",
+            "Int16",
+            "-co",
+            "COMPRESS=DEFLATE",
+            "-co",
+            "BLOCKSIZE=32",
+        ],
+    ),
+    (
+        "cog-float32-lzw.tif",
+        &[
+            "-of",
+            "COG",
+            "-ot",
+            "Float32",
+            "-co",
+            "COMPRESS=LZW",
+            "-co",
+            "PREDICTOR=YES",
+            "-co",
+            "BLOCKSIZE=16",
+        ],
+    ),
+];
+
+#[test]
+fn gdal_written_geotiffs_agree_with_gdallocationinfo() {
+    if !gdal_ready() {
+        return;
+    }
+    let tmp = tempfile::tempdir().unwrap();
+    let mut rng = Rng(0x6765_6f74_6966_6615);
+    let mut total = Agreement::default();
+    for (name, args) in VARIANTS {
+        let file = translate(tmp.path(), name, args);
+        let raster = GeoTiffRaster::open(&file).unwrap_or_else(|e| panic!("{name}: {e}"));
+        let g = raster.grid();
+        assert_eq!((g.cols, g.rows), (97, 61), "{name}");
+        if name.starts_with("cog") {
+            assert!(raster.tiled(), "{name}: a COG is tiled");
+        }
+        if name.contains("point") {
+            assert!(raster.pixel_is_point(), "{name}: GDAL wrote PixelIsPoint");
+        }
+        let a = compare_with_gdal(&raster, &file, &mut rng, 400);
+        eprintln!(
+            "GDAL agreement {name} ({}): {} points ({} pixel centres on the edges and \
+             corners), max |difference| {} m, {} no data",
+            raster.describe(),
+            a.points,
+            a.edge_points,
+            a.max_diff,
+            a.nodata
+        );
+        assert_eq!(a.max_diff, 0.0, "{name}: globe and GDAL differ");
+        assert_eq!(a.mismatched_nodata, 0, "{name}: no-data disagrees");
+        total.add(&a);
+    }
+    eprintln!(
+        "GDAL agreement, all GeoTIFF/COG variants: {} points, max |difference| {} m",
+        total.points, total.max_diff
+    );
+}
+
+/// GDAL_NODATA: the value of a pixel made the no-data value reads as NaN wherever it occurs,
+/// as GDAL reports its no-data value there.
+#[test]
+fn gdal_nodata_reads_as_no_data() {
+    if !gdal_ready() {
+        return;
+    }
+    let tmp = tempfile::tempdir().unwrap();
+    let plain = translate(tmp.path(), "plain.tif", &["-ot", "Int16"]);
+    let first = {
+        let r = GeoTiffRaster::open(&plain).unwrap();
+        let mut row = vec![0f32; r.grid().cols];
+        r.read_row(0, &mut row).unwrap();
+        row[0]
+    };
+    let nodata = format!("{first}");
+    let file = translate(
+        tmp.path(),
+        "nodata.tif",
+        &[
+            "-ot",
+            "Int16",
+            "-a_nodata",
+            &nodata,
+            "-co",
+            "COMPRESS=DEFLATE",
+        ],
+    );
+    let raster = GeoTiffRaster::open(&file).unwrap();
+    assert_eq!(raster.nodata(), Some(first as f64));
+    let a = compare_with_gdal(&raster, &file, &mut Rng(7), 200);
+    assert!(a.nodata >= 1, "pixel (0, 0) is no data");
+    assert_eq!((a.max_diff, a.mismatched_nodata), (0.0, 0));
+}
+
+/// `globe-data import` path: a GDAL COG into a pyramid, level 0 equal to the raster.
+#[test]
+fn cog_imports_into_a_pyramid_equal_at_level_0() {
+    if !gdal_ready() {
+        return;
+    }
+    let tmp = tempfile::tempdir().unwrap();
+    let file = translate(
+        tmp.path(),
+        "cog.tif",
+        &[
+            "-of",
+            "COG",
+            "-ot",
+            "Int16",
+            "-co",
+            "COMPRESS=DEFLATE",
+            "-co",
+            "BLOCKSIZE=32",
+        ],
+    );
+    let source = globe::dem::raster::open_raster(&file, None).unwrap();
+    let out = tmp.path().join("cog.globepyr");
+    PyramidBuilder::new()
+        .tile_size(32)
+        .build(source.as_ref(), &out)
+        .unwrap();
+    let p = Pyramid::open(&out).unwrap();
+    let g = source.grid();
+    let mut row = vec![0f32; g.cols];
+    for r in (0..g.rows).step_by(7) {
+        source.read_row(r, &mut row).unwrap();
+        for c in (0..g.cols).step_by(5) {
+            let h = p
+                .sample(g.lat_of_row(r as f64), g.lon_of_col(c as f64), 0)
+                .unwrap();
+            assert_eq!(h, row[c] as f64, "row {r}, column {c}");
+        }
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Bad input: each a clear error naming the file and the field
+// ---------------------------------------------------------------------------------------------
+
+fn open_err(file: &Path) -> String {
+    let e = GeoTiffRaster::open(file).expect_err("must be refused");
+    let text = e.to_string();
+    assert!(
+        text.contains(&file.display().to_string()),
+        "the error names the file: {text}"
+    );
+    text
+}
+
+#[test]
+fn projected_crs_is_refused_naming_it() {
+    if !gdal_ready() {
+        return;
+    }
+    let tmp = tempfile::tempdir().unwrap();
+    let geo = translate(tmp.path(), "geo.tif", &["-ot", "Int16"]);
+    let utm = tmp.path().join("utm.tif");
+    gdal(
+        "gdalwarp",
+        &[
+            "-q",
+            "-t_srs",
+            "EPSG:32632",
+            "-ts",
+            "40",
+            "30",
+            geo.to_str().unwrap(),
+            utm.to_str().unwrap(),
+        ],
+    );
+    let text = open_err(&utm);
+    assert!(text.contains("EPSG:32632"), "names the CRS: {text}");
+    assert!(
+        text.contains("ProjectedCSTypeGeoKey"),
+        "names the field: {text}"
+    );
+    assert!(text.contains("geographic"), "says what globe needs: {text}");
+}
+
+#[test]
+fn compressions_the_build_lacks_are_refused_naming_them() {
+    if !gdal_ready() {
+        return;
+    }
+    let tmp = tempfile::tempdir().unwrap();
+    for (name, args, expect) in [
+        (
+            "zstd.tif",
+            vec!["-ot", "Int16", "-co", "COMPRESS=ZSTD"],
+            "ZSTD (50000)",
+        ),
+        (
+            "jpeg.tif",
+            vec!["-ot", "Byte", "-co", "COMPRESS=JPEG"],
+            "JPEG (7)",
+        ),
+    ] {
+        let file = translate(tmp.path(), name, &args);
+        let text = open_err(&file);
+        if name == "jpeg.tif" {
+            // Byte samples are refused first; the sample type is checked before compression.
+            assert!(
+                text.contains("SampleFormat") || text.contains(expect),
+                "{text}"
+            );
+        } else {
+            assert!(
+                text.contains("Compression") && text.contains(expect),
+                "{text}"
+            );
+        }
+    }
+}
+
+#[test]
+fn unsupported_sample_types_are_refused() {
+    if !gdal_ready() {
+        return;
+    }
+    let tmp = tempfile::tempdir().unwrap();
+    for ty in ["Byte", "Int32", "Float64"] {
+        let file = translate(tmp.path(), &format!("{ty}.tif"), &["-ot", ty]);
+        let text = open_err(&file);
+        assert!(
+            text.contains("SampleFormat") && text.contains("expected Int16, UInt16 or Float32"),
+            "{ty}: {text}"
+        );
+    }
+}
+
+#[test]
+fn a_truncated_strip_is_refused_and_leaves_no_pyramid() {
+    if !gdal_ready() {
+        return;
+    }
+    let tmp = tempfile::tempdir().unwrap();
+    for args in [
+        vec![
+            "-ot",
+            "Int16",
+            "-co",
+            "COMPRESS=DEFLATE",
+            "-co",
+            "BLOCKYSIZE=7",
+        ],
+        vec!["-ot", "Int16", "-co", "BLOCKYSIZE=7"],
+    ] {
+        let file = translate(tmp.path(), "whole.tif", &args);
+        let bytes = std::fs::read(&file).unwrap();
+        // GDAL writes the IFD first and the strips after it: cut into the last strip.
+        let cut = tmp.path().join("cut.tif");
+        std::fs::write(&cut, &bytes[..bytes.len() - 40]).unwrap();
+        let err = GeoTiffRaster::open(&cut).expect_err("truncated");
+        assert!(
+            matches!(err, DemError::Truncated { .. }),
+            "a Truncated error: {err}"
+        );
+        let text = err.to_string();
+        assert!(
+            text.contains("strip") && text.contains("StripByteCounts"),
+            "names the strip and the field: {text}"
+        );
+        // The importer: an error, and neither the pyramid nor its partial file left behind.
+        let out = tmp.path().join("cut.globepyr");
+        assert!(globe::dem::raster::open_raster(&cut, None).is_err());
+        assert!(!out.exists());
+    }
+}
+
+/// A strip whose bytes are all there but whose compressed stream is corrupt fails while the
+/// pyramid is being built: the error names the strip, and no file is left behind.
+#[test]
+fn a_corrupt_strip_fails_the_import_and_leaves_nothing() {
+    if !gdal_ready() {
+        return;
+    }
+    let tmp = tempfile::tempdir().unwrap();
+    let file = translate(
+        tmp.path(),
+        "deflate.tif",
+        &[
+            "-ot",
+            "Int16",
+            "-co",
+            "COMPRESS=DEFLATE",
+            "-co",
+            "BLOCKYSIZE=7",
+        ],
+    );
+    let mut bytes = std::fs::read(&file).unwrap();
+    let n = bytes.len();
+    // The last strip's stream: garbage in place of its end.
+    for b in &mut bytes[n - 60..n - 2] {
+        *b = 0xA5;
+    }
+    let bad = tmp.path().join("bad.tif");
+    std::fs::write(&bad, &bytes).unwrap();
+    let source = GeoTiffRaster::open(&bad).expect("the layout is intact");
+    let out = tmp.path().join("bad.globepyr");
+    let err = PyramidBuilder::new()
+        .tile_size(32)
+        .build(&source, &out)
+        .expect_err("a corrupt strip");
+    let text = err.to_string();
+    assert!(
+        text.contains("strip 8") && text.contains("bad.tif"),
+        "{text}"
+    );
+    assert!(!out.exists(), "no pyramid left behind");
+    let partial = tmp.path().join("bad.globepyr.partial");
+    assert!(!partial.exists(), "no partial file left behind");
+}
+
+#[test]
+fn not_a_tiff_and_no_georeferencing_are_refused() {
+    let tmp = tempfile::tempdir().unwrap();
+    let junk = tmp.path().join("junk.tif");
+    std::fs::write(&junk, b"not a tiff at all").unwrap();
+    let text = open_err(&junk);
+    assert!(text.contains("byte order"), "{text}");
+    if !gdal_ready() {
+        return;
+    }
+    // A plain TIFF, no GeoTIFF tags.
+    let plain = translate(
+        tmp.path(),
+        "plain.tif",
+        &["-ot", "Int16", "-co", "PROFILE=BASELINE"],
+    );
+    let text = open_err(&plain);
+    assert!(text.contains("GeoKeyDirectory"), "{text}");
+}
+
+/// A header claiming 2³¹ × 2³¹ pixels in one strip of a few bytes is refused at open, before
+/// anything the size of the claim is allocated.
+#[test]
+fn a_huge_claim_is_refused_before_allocating() {
+    let mut t = Vec::new();
+    t.extend_from_slice(b"II*\0");
+    t.extend_from_slice(&8u32.to_le_bytes());
+    let entries: &[(u16, u16, u32, u32)] = &[
+        (256, 4, 1, 1 << 31),
+        (257, 4, 1, 1 << 31),
+        (258, 3, 1, 16),
+        (259, 3, 1, 8),
+        (273, 4, 1, 200),
+        (277, 3, 1, 1),
+        (278, 4, 1, 1 << 31),
+        (279, 4, 1, 10),
+        (339, 3, 1, 2),
+    ];
+    t.extend_from_slice(&(entries.len() as u16).to_le_bytes());
+    for &(tag, typ, count, value) in entries {
+        t.extend_from_slice(&tag.to_le_bytes());
+        t.extend_from_slice(&typ.to_le_bytes());
+        t.extend_from_slice(&count.to_le_bytes());
+        t.extend_from_slice(&value.to_le_bytes());
+    }
+    t.extend_from_slice(&0u32.to_le_bytes());
+    t.resize(256, 0);
+    let e = GeoTiffRaster::from_bytes(t, "huge.tif").expect_err("refused");
+    let text = e.to_string();
+    assert!(text.contains("huge.tif"), "{text}");
+}
