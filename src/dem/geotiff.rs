@@ -96,6 +96,7 @@ struct Layout {
     chunk_h: usize,
     across: usize,
     offsets: Vec<u64>,
+    counts: Vec<u64>,
 }
 
 /// The mapped file, shared between the reader and the decoder's cursor.
@@ -224,14 +225,14 @@ impl GeoTiffRaster {
         }
         let predictor = ifd.scalar(b, 317, Some(1), p)? as u16;
         match (predictor, sample) {
-            (1, _) | (2, _) | (3, TiffSample::F32) => {}
+            (1, _) | (2, TiffSample::I16 | TiffSample::U16) | (3, TiffSample::F32) => {}
             _ => {
                 return Err(header_err(
                     p,
                     "Predictor",
                     format!(
-                        "{predictor} for {sample:?} samples; expected 1 (none), 2 (horizontal) \
-                         or, for Float32, 3 (floating point)"
+                        "{predictor} for {sample:?} samples; expected 1 (none), 2 (horizontal, \
+                         integers) or 3 (floating point, Float32)"
                     ),
                 ));
             }
@@ -403,6 +404,120 @@ impl GeoTiffRaster {
         Ok(())
     }
 
+    /// An LZW chunk, decoded here with `weezl` (the codec the `tiff` crate uses) rather than by
+    /// the crate: tiff 0.11.3 fails on LZW tiles with horizontal padding (GDAL's edge tiles:
+    /// "no lzw end code found" while skipping the padding of the last row). The whole stored
+    /// chunk (`stored_rows` × the chunk width) is decoded, the predictor undone, and the
+    /// `w` × `rows` data returned.
+    fn lzw_chunk(
+        &self,
+        idx: usize,
+        stored_rows: usize,
+        w: usize,
+        rows: usize,
+    ) -> Result<tiff::decoder::DecodingResult, DemError> {
+        use tiff::decoder::DecodingResult as D;
+        let l = &self.layout;
+        let what = if l.tiled { "tile" } else { "strip" };
+        let size = self.sample.bytes();
+        let row_bytes = l.chunk_w * size;
+        let need = row_bytes * stored_rows;
+        let (off, count) = (l.offsets[idx] as usize, l.counts[idx] as usize);
+        let mut input = &self.bytes.as_ref()[off..off + count];
+        let mut out = vec![0u8; need];
+        let mut got = 0;
+        let mut lzw = weezl::decode::Decoder::with_tiff_size_switch(weezl::BitOrder::Msb, 8);
+        while got < need {
+            let r = lzw.decode_bytes(input, &mut out[got..]);
+            input = &input[r.consumed_in..];
+            got += r.consumed_out;
+            match r.status {
+                Ok(weezl::LzwStatus::Ok) if r.consumed_in + r.consumed_out > 0 => {}
+                Ok(_) if got == need => {}
+                Ok(_) => {
+                    return Err(DemError::Data {
+                        path: self.path.clone(),
+                        message: format!(
+                            "{what} {idx}: its LZW data ends after {got} of the {need} bytes                              of its samples; the file is truncated or corrupt"
+                        ),
+                    });
+                }
+                Err(e) => {
+                    return Err(DemError::Data {
+                        path: self.path.clone(),
+                        message: format!("{what} {idx}: LZW data is corrupt ({e})"),
+                    });
+                }
+            }
+        }
+        let n = l.chunk_w;
+        let le = self.little_endian;
+        let crop = |r: usize, c: usize| r < rows && c < w;
+        Ok(match (self.sample, self.predictor) {
+            (TiffSample::F32, 3) => {
+                // Floating-point predictor: per row, bytes differenced, then planes of the
+                // samples' bytes, most significant first, whatever the file's byte order.
+                let mut v = Vec::with_capacity(w * rows);
+                for row in out.chunks_exact_mut(row_bytes).take(rows) {
+                    for i in 1..row.len() {
+                        row[i] = row[i].wrapping_add(row[i - 1]);
+                    }
+                    for c in 0..w {
+                        v.push(f32::from_be_bytes([
+                            row[c],
+                            row[n + c],
+                            row[2 * n + c],
+                            row[3 * n + c],
+                        ]));
+                    }
+                }
+                D::F32(v)
+            }
+            (TiffSample::F32, _) => {
+                let mut v = Vec::with_capacity(w * rows);
+                for (r, row) in out.chunks_exact(row_bytes).enumerate() {
+                    for (c, b) in row.chunks_exact(4).enumerate() {
+                        let b = [b[0], b[1], b[2], b[3]];
+                        if crop(r, c) {
+                            v.push(if le {
+                                f32::from_le_bytes(b)
+                            } else {
+                                f32::from_be_bytes(b)
+                            });
+                        }
+                    }
+                }
+                D::F32(v)
+            }
+            (sample, predictor) => {
+                let mut v: Vec<u16> = Vec::with_capacity(w * rows);
+                for (r, row) in out.chunks_exact(row_bytes).enumerate().take(rows) {
+                    let mut prev = 0u16;
+                    for (c, b) in row.chunks_exact(2).enumerate() {
+                        let b = [b[0], b[1]];
+                        let mut x = if le {
+                            u16::from_le_bytes(b)
+                        } else {
+                            u16::from_be_bytes(b)
+                        };
+                        if predictor == 2 {
+                            x = x.wrapping_add(prev);
+                            prev = x;
+                        }
+                        if crop(r, c) {
+                            v.push(x);
+                        }
+                    }
+                }
+                if sample == TiffSample::I16 {
+                    D::I16(v.into_iter().map(|x| x as i16).collect())
+                } else {
+                    D::U16(v)
+                }
+            }
+        })
+    }
+
     /// Decodes every chunk of band `index` into `data` (cols × chunk_h values).
     fn decode_band(&self, index: usize, data: &mut Vec<f32>) -> Result<(), DemError> {
         let l = &self.layout;
@@ -421,9 +536,14 @@ impl GeoTiffRaster {
             let c0 = chunk_col * l.chunk_w;
             let w = l.chunk_w.min(g.cols - c0);
             let what = if l.tiled { "tile" } else { "strip" };
-            let decoded = decoder
-                .read_chunk(idx as u32)
-                .map_err(|e| tiff_err(&self.path, &format!("{what} {idx}"), e))?;
+            let decoded = if self.compression == 5 {
+                let stored_rows = if l.tiled { l.chunk_h } else { rows };
+                self.lzw_chunk(idx, stored_rows, w, rows)?
+            } else {
+                decoder
+                    .read_chunk(idx as u32)
+                    .map_err(|e| tiff_err(&self.path, &format!("{what} {idx}"), e))?
+            };
             use tiff::decoder::DecodingResult as D;
             let n = match &decoded {
                 D::I16(v) => v.len(),
@@ -593,6 +713,7 @@ fn chunk_layout(
         chunk_h,
         across,
         offsets,
+        counts,
     })
 }
 

@@ -85,7 +85,8 @@ pub struct Agreement {
     pub points: usize,
     /// Of which pixel centres on the corners and edges.
     pub edge_points: usize,
-    /// Largest |globe − GDAL| where both have a value, metres.
+    /// Largest |globe − GDAL| where both have a value, metres, in f32 (GDAL's text rounded to
+    /// the nearest f32; integers compare exactly).
     pub max_diff: f64,
     /// Points where both say no data.
     pub nodata: usize,
@@ -201,7 +202,9 @@ pub fn compare_with_gdal_nodata(
         match (ours.is_nan(), gdal_says_nodata) {
             (true, true) => a.nodata += 1,
             (false, false) => {
-                let d = (ours as f64 - theirs).abs();
+                // GDAL prints 15 significant digits: a Float32 value's text read back to f32
+                // is that value exactly (the difference of integers is exact anyway).
+                let d = (ours - theirs as f32).abs() as f64;
                 if d > a.max_diff {
                     eprintln!(
                         "{}: at lat {lat}, lon {lon} (pixel {row}, {col}) globe {ours}, GDAL {theirs}",
