@@ -458,7 +458,7 @@ fn a_corrupt_strip_fails_the_import_and_leaves_nothing() {
 }
 
 #[test]
-fn not_a_tiff_and_no_georeferencing_are_refused() {
+fn not_a_tiff_and_no_georeferencing_are_refused_but_no_crs_is_taken_as_lat_lon() {
     let tmp = tempfile::tempdir().unwrap();
     let junk = tmp.path().join("junk.tif");
     std::fs::write(&junk, b"not a tiff at all").unwrap();
@@ -474,7 +474,29 @@ fn not_a_tiff_and_no_georeferencing_are_refused() {
         &["-ot", "Int16", "-co", "PROFILE=BASELINE"],
     );
     let text = open_err(&plain);
-    assert!(text.contains("GeoKeyDirectory"), "{text}");
+    // A georeferenced file without a CRS (ETOPO5's netCDF has none, so GDAL writes none).
+    let no_crs = tmp.path().join("no-crs.tif");
+    gdal(
+        "gdal_translate",
+        &[
+            "-q",
+            "-ot",
+            "Int16",
+            "-srcwin",
+            "100",
+            "500",
+            "40",
+            "30",
+            etopo5().to_str().unwrap(),
+            no_crs.to_str().unwrap(),
+        ],
+    );
+    let r = GeoTiffRaster::open(&no_crs).unwrap();
+    assert!(r.crs().contains("no CRS"), "{}", r.crs());
+    assert!(
+        text.contains("ModelPixelScale") && text.contains("not georeferenced"),
+        "{text}"
+    );
 }
 
 /// A header claiming 2³¹ × 2³¹ pixels in one strip of a few bytes is refused at open, before

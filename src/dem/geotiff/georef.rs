@@ -1,6 +1,9 @@
 //! GeoTIFF georeferencing: the GeoKey directory (which CRS, pixel-is-area or -point) and the
 //! model tags (pixel scale + tiepoint, or a transformation without rotation) turned into a
-//! [`GeoGrid`] of pixel centres, with GDAL's conventions.
+//! [`GeoGrid`] of pixel centres, with GDAL's conventions. A file without a CRS (no
+//! GeoKeyDirectory, or one naming neither a model type nor a geographic CRS) is taken as
+//! latitude/longitude in degrees when its grid fits the globe, as an EHdr grid is; a projected
+//! or geocentric CRS is an error naming it.
 
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -57,13 +60,7 @@ fn err(path: &Path, field: &str, message: String) -> DemError {
 
 fn geo_keys(b: &[u8], ifd: &Ifd, path: &Path) -> Result<BTreeMap<u16, KeyValue>, DemError> {
     let Some(dir) = ifd.unsigned(b, GEO_KEY_DIRECTORY, path)? else {
-        return Err(err(
-            path,
-            "GeoKeyDirectory",
-            "absent: the file says nothing of its coordinate system; expected a GeoTIFF in \
-             geographic latitude/longitude (e.g. gdal_translate -a_srs EPSG:4326)"
-                .into(),
-        ));
+        return Ok(BTreeMap::new());
     };
     if dir.len() < 4 {
         return Err(err(
@@ -178,15 +175,9 @@ pub(crate) fn georeference(
         ));
     }
     let geographic = short(&keys, GEOGRAPHIC_TYPE);
-    if model.is_none() && geographic.is_none() {
-        return Err(err(
-            path,
-            "GTModelTypeGeoKey",
-            "absent, and no GeographicTypeGeoKey: the CRS is unknown; expected a geographic \
-             (latitude/longitude) GeoTIFF"
-                .into(),
-        ));
-    }
+    // No CRS at all (GDAL writes none for a source without one, such as ETOPO5's netCDF): taken
+    // as latitude/longitude, as EHdr grids are, if the grid passes the geographic checks below.
+    let unknown_crs = model.is_none() && geographic.is_none();
     // Degrees: 9102 (EPSG "degree") or 9122 ("degree (supplier to define representation)").
     if let Some(u) = short(&keys, GEOG_ANGULAR_UNITS)
         && u != 9102
@@ -209,10 +200,14 @@ pub(crate) fn georeference(
             ));
         }
     };
-    let crs = crs_name(
-        geographic,
-        text(&keys, GEOG_CITATION).or_else(|| text(&keys, GT_CITATION)),
-    );
+    let crs = if unknown_crs {
+        "no CRS given (taken as latitude/longitude)".to_string()
+    } else {
+        crs_name(
+            geographic,
+            text(&keys, GEOG_CITATION).or_else(|| text(&keys, GT_CITATION)),
+        )
+    };
 
     // (x of raster (0, 0), degrees per column, y of raster (0, 0), degrees per row southward),
     // raster (0, 0) being the upper-left pixel's corner (area) or centre (point).
