@@ -72,18 +72,21 @@ fn geo_keys(b: &[u8], ifd: &Ifd, path: &Path) -> Result<BTreeMap<u16, KeyValue>,
             ),
         ));
     }
-    let n = dir[3] as usize;
-    if dir.len() < 4 + 4 * n {
+    // The count is a SHORT in the standard, but a forged file may store the directory as
+    // LONG8: the product is checked (found by `fuzz_geotiff`).
+    let n = dir[3];
+    let needed = n.saturating_mul(4).saturating_add(4);
+    if (dir.len() as u64) < needed {
         return Err(err(
             path,
             "GeoKeyDirectory",
-            format!("{} values for {n} keys; expected {}", dir.len(), 4 + 4 * n),
+            format!("{} values for {n} keys; expected {needed}", dir.len()),
         ));
     }
     let doubles = ifd.doubles(b, GEO_DOUBLE_PARAMS, path)?.unwrap_or_default();
     let ascii = ifd.ascii(b, GEO_ASCII_PARAMS).unwrap_or_default();
     let mut keys = BTreeMap::new();
-    for k in 0..n {
+    for k in 0..n as usize {
         let e = &dir[4 + 4 * k..8 + 4 * k];
         let (id, location, count, value) = (e[0] as u16, e[1] as u16, e[2] as usize, e[3] as usize);
         let v = match location {
