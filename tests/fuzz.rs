@@ -1672,17 +1672,17 @@ fn layout_tiff(_: &str, b: &[u8]) -> Shape {
     };
     let mut fields = vec![(4, 4, 1)];
     let mut hot = b.len().min(512);
-    if let (Some(ifd), true) = (u32_at(4).map(|v| v as usize), b.len() > 8) {
-        if let Some(n) = u16_at(ifd) {
-            fields.push((ifd, 2, 0));
-            for k in 0..(n as usize).min(64) {
-                let e = ifd + 2 + 12 * k;
-                if e + 12 > b.len() {
-                    break;
-                }
-                fields.extend([(e + 2, 2, 1), (e + 4, 4, 2), (e + 8, 4, 3)]);
-                hot = hot.max(e + 12);
+    if let (Some(ifd), true) = (u32_at(4).map(|v| v as usize), b.len() > 8)
+        && let Some(n) = u16_at(ifd)
+    {
+        fields.push((ifd, 2, 0));
+        for k in 0..(n as usize).min(64) {
+            let e = ifd + 2 + 12 * k;
+            if e + 12 > b.len() {
+                break;
             }
+            fields.extend([(e + 2, 2, 1), (e + 4, 4, 2), (e + 8, 4, 3)]);
+            hot = hot.max(e + 12);
         }
     }
     Shape {

@@ -530,3 +530,134 @@ fn a_huge_claim_is_refused_before_allocating() {
     let text = e.to_string();
     assert!(text.contains("huge.tif"), "{text}");
 }
+
+/// A little-endian, uncompressed Int16 GeoTIFF of 3 × 2 pixels with the given extra entries
+/// (tag, type, values as little-endian bytes), for the georeferencing forms GDAL writes rarely.
+fn tiny_tiff(extra: &[(u16, u16, Vec<u8>)]) -> Vec<u8> {
+    let pixels: [i16; 6] = [1, 2, 3, 4, 5, 6];
+    let mut entries: Vec<(u16, u16, Vec<u8>)> = vec![
+        (256, 3, 3u16.to_le_bytes().to_vec()),
+        (257, 3, 2u16.to_le_bytes().to_vec()),
+        (258, 3, 16u16.to_le_bytes().to_vec()),
+        (259, 3, 1u16.to_le_bytes().to_vec()),
+        (273, 4, vec![]), // patched below: the data's offset
+        (277, 3, 1u16.to_le_bytes().to_vec()),
+        (278, 3, 2u16.to_le_bytes().to_vec()),
+        (279, 4, 12u32.to_le_bytes().to_vec()),
+        (339, 3, 2u16.to_le_bytes().to_vec()),
+    ];
+    entries.extend(extra.iter().cloned());
+    entries.sort_by_key(|e| e.0);
+    let size = |typ: u16| match typ {
+        3 => 2,
+        4 => 4,
+        12 => 8,
+        _ => 1,
+    };
+    let ifd_len = 2 + 12 * entries.len() + 4;
+    let mut blobs: Vec<u8> = Vec::new();
+    let blob_base = 8 + ifd_len;
+    let data_at = blob_base + entries.iter().map(|e| e.2.len() + 8).sum::<usize>();
+    let mut t = Vec::new();
+    t.extend_from_slice(b"II*\0");
+    t.extend_from_slice(&8u32.to_le_bytes());
+    t.extend_from_slice(&(entries.len() as u16).to_le_bytes());
+    for (tag, typ, value) in &entries {
+        let value = if *tag == 273 {
+            (data_at as u32).to_le_bytes().to_vec()
+        } else {
+            value.clone()
+        };
+        t.extend_from_slice(&tag.to_le_bytes());
+        t.extend_from_slice(&typ.to_le_bytes());
+        t.extend_from_slice(&((value.len() / size(*typ)) as u32).to_le_bytes());
+        if value.len() <= 4 {
+            let mut v = value.clone();
+            v.resize(4, 0);
+            t.extend_from_slice(&v);
+        } else {
+            t.extend_from_slice(&((blob_base + blobs.len()) as u32).to_le_bytes());
+            blobs.extend_from_slice(&value);
+        }
+    }
+    t.extend_from_slice(&0u32.to_le_bytes());
+    t.extend_from_slice(&blobs);
+    t.resize(data_at, 0);
+    for p in pixels {
+        t.extend_from_slice(&p.to_le_bytes());
+    }
+    t
+}
+
+fn doubles(v: &[f64]) -> Vec<u8> {
+    v.iter().flat_map(|x| x.to_le_bytes()).collect()
+}
+
+fn shorts(v: &[u16]) -> Vec<u8> {
+    v.iter().flat_map(|x| x.to_le_bytes()).collect()
+}
+
+/// GeoKeys: geographic model, the raster type (1 area, 2 point), EPSG:4326.
+fn geokeys(raster_type: u16) -> (u16, u16, Vec<u8>) {
+    (
+        34735,
+        3,
+        shorts(&[
+            1,
+            1,
+            0,
+            3,
+            1024,
+            0,
+            1,
+            2,
+            1025,
+            0,
+            1,
+            raster_type,
+            2048,
+            0,
+            1,
+            4326,
+        ]),
+    )
+}
+
+#[test]
+fn model_transformation_and_pixel_is_point_give_gdals_grid() {
+    // Corner (10°, 47°), 0.5° × 0.25° pixels, no rotation.
+    let m = [
+        0.5, 0.0, 0.0, 10.0, 0.0, -0.25, 0.0, 47.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0,
+    ];
+    for (raster_type, lon0, lat0) in [(1, 10.25, 46.875), (2, 10.0, 47.0)] {
+        let t = tiny_tiff(&[(34264, 12, doubles(&m)), geokeys(raster_type)]);
+        let r = GeoTiffRaster::from_bytes(t, "transform.tif").unwrap();
+        let g = r.grid();
+        assert_eq!(
+            (g.lon0_deg, g.lat0_deg, g.dlon_deg, g.dlat_deg),
+            (lon0, lat0, 0.5, 0.25)
+        );
+        let mut row = [0f32; 3];
+        r.read_row(1, &mut row).unwrap();
+        assert_eq!(row, [4.0, 5.0, 6.0]);
+    }
+    // The same through ModelPixelScale + a tiepoint at raster (1, 1).
+    let t = tiny_tiff(&[
+        (33550, 12, doubles(&[0.5, 0.25, 0.0])),
+        (33922, 12, doubles(&[1.0, 1.0, 0.0, 10.5, 46.75, 0.0])),
+        geokeys(1),
+    ]);
+    let g = GeoTiffRaster::from_bytes(t, "tie.tif").unwrap().grid();
+    assert_eq!((g.lon0_deg, g.lat0_deg), (10.25, 46.875));
+    // Rotation is refused, naming the field.
+    let mut rotated = m;
+    rotated[1] = 0.01;
+    let t = tiny_tiff(&[(34264, 12, doubles(&rotated)), geokeys(1)]);
+    let e = GeoTiffRaster::from_bytes(t, "rotated.tif")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("ModelTransformation") && e.contains("rotat"),
+        "{e}"
+    );
+}

@@ -194,7 +194,7 @@ impl Ifd {
             let Some(size) = type_size(typ) else {
                 continue; // an unknown type: TIFF readers skip such entries
             };
-            let total = count.checked_mul(size).unwrap_or(u64::MAX);
+            let total = count.saturating_mul(size);
             let bytes = if total <= offset_len as u64 {
                 value_at..value_at + total as usize
             } else {
@@ -203,7 +203,7 @@ impl Ifd {
                 } else {
                     ifd.u32_at(b, value_at) as u64
                 };
-                let end = offset.checked_add(total).unwrap_or(u64::MAX);
+                let end = offset.saturating_add(total);
                 if end > len {
                     return Err(truncated(
                         path,
