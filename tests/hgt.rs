@@ -286,3 +286,61 @@ fn voids_read_as_no_data() {
     assert!(row[0].is_nan());
     assert_eq!((row[1], row[2]), (-12.0, 8848.0));
 }
+
+/// `globe render --dem FOLDER` takes a folder of `.hgt` tiles as a user would: imported into
+/// the cache (here a temporary one) and rendered. Needs an adapter (a software one will do).
+#[test]
+fn globe_dem_takes_a_folder_of_hgt_tiles() {
+    if !gdal_ready() {
+        return;
+    }
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("srtm");
+    std::fs::create_dir(&dir).unwrap();
+    srtm_tiles(&dir, 46, 10, 1, 1201);
+    for f in std::fs::read_dir(&dir).unwrap() {
+        let p = f.unwrap().path();
+        if p.extension().is_none_or(|e| e != "hgt") {
+            std::fs::remove_file(p).unwrap();
+        }
+    }
+    let cache = tmp.path().join("cache");
+    let run = std::process::Command::new(env!("CARGO_BIN_EXE_globe"))
+        .args([
+            "render", "--scene", "space", "--width", "48", "--height", "27",
+        ])
+        .arg("--dem")
+        .arg(&dir)
+        .arg("--out")
+        .arg(tmp.path().join("x.png"))
+        .env("XDG_CACHE_HOME", &cache)
+        .output()
+        .expect("globe runs");
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    if !run.status.success() && stderr.contains("no graphics adapter") {
+        assert!(
+            std::env::var("GLOBE_REQUIRE_GPU").as_deref() != Ok("1"),
+            "GLOBE_REQUIRE_GPU=1 but no adapter: {stderr}"
+        );
+        eprintln!("SKIPPED: no graphics adapter");
+        return;
+    }
+    assert!(run.status.success(), "{stderr}");
+    let imported: Vec<_> = std::fs::read_dir(cache.join("globe"))
+        .unwrap()
+        .filter_map(|e| e.ok())
+        .filter(|e| e.path().extension().is_some_and(|x| x == "globepyr"))
+        .collect();
+    assert_eq!(imported.len(), 1, "one pyramid imported into the cache");
+    let p = Pyramid::open(imported[0].path()).unwrap();
+    assert_eq!(
+        p.sample(46.5, 10.5, 0),
+        HgtRaster::open(dir.join("N46E010.hgt"))
+            .map(|t| {
+                let mut row = vec![0f32; 1201];
+                t.read_row(600, &mut row).unwrap();
+                row[600] as f64
+            })
+            .ok()
+    );
+}
