@@ -661,3 +661,54 @@ fn model_transformation_and_pixel_is_point_give_gdals_grid() {
         "{e}"
     );
 }
+
+/// A folder of GeoTIFFs (two halves GDAL cut from one file, one with Deflate, one with LZW
+/// tiles) is one raster equal to the whole, pixel for pixel.
+#[test]
+fn a_folder_of_geotiffs_is_one_mosaic_equal_to_the_whole() {
+    if !gdal_ready() {
+        return;
+    }
+    let tmp = tempfile::tempdir().unwrap();
+    let whole = translate(tmp.path(), "whole.tif", &["-ot", "Int16"]);
+    let dir = tmp.path().join("halves");
+    std::fs::create_dir(&dir).unwrap();
+    for (name, x, w, co) in [
+        ("west.tif", "0", "48", "COMPRESS=DEFLATE"),
+        ("east.TIF", "48", "49", "COMPRESS=LZW"),
+    ] {
+        let out = dir.join(name);
+        gdal(
+            "gdal_translate",
+            &[
+                "-q",
+                "-co",
+                co,
+                "-co",
+                "TILED=YES",
+                "-co",
+                "BLOCKXSIZE=16",
+                "-co",
+                "BLOCKYSIZE=16",
+                "-srcwin",
+                x,
+                "0",
+                w,
+                "61",
+                whole.to_str().unwrap(),
+                out.to_str().unwrap(),
+            ],
+        );
+    }
+    let whole = GeoTiffRaster::open(&whole).unwrap();
+    let mosaic = globe::dem::raster::open_raster(&dir, None).unwrap();
+    let (a, b) = (whole.grid(), mosaic.grid());
+    assert_eq!((a.cols, a.rows), (b.cols, b.rows), "{}", mosaic.describe());
+    assert!((a.lon0_deg - b.lon0_deg).abs() < 1e-9 && (a.lat0_deg - b.lat0_deg).abs() < 1e-9);
+    let (mut ra, mut rb) = (vec![0f32; a.cols], vec![0f32; a.cols]);
+    for r in 0..a.rows {
+        whole.read_row(r, &mut ra).unwrap();
+        mosaic.read_row(r, &mut rb).unwrap();
+        assert_eq!(ra, rb, "row {r}");
+    }
+}
