@@ -186,6 +186,19 @@ impl GeoTiffRaster {
                 format!("{spp}; expected 1 (globe reads single-band elevation rasters)"),
             ));
         }
+        let compression = ifd.scalar(b, 259, Some(1), p)? as u16;
+        if max_expansion(compression) == 0 {
+            return Err(header_err(
+                p,
+                "Compression",
+                format!(
+                    "{} ({compression}) is not supported (globe's TIFF decoder is built with \
+                     Deflate, LZW and PackBits only); expected one of those or none (re-save \
+                     with gdal_translate -co COMPRESS=DEFLATE)",
+                    compression_name(compression)
+                ),
+            ));
+        }
         let bits = ifd.scalar(b, 258, Some(1), p)?;
         let format = ifd.scalar(b, 339, Some(1), p)?;
         let sample = match (format, bits) {
@@ -210,19 +223,6 @@ impl GeoTiffRaster {
                 ));
             }
         };
-        let compression = ifd.scalar(b, 259, Some(1), p)? as u16;
-        if max_expansion(compression) == 0 {
-            return Err(header_err(
-                p,
-                "Compression",
-                format!(
-                    "{} ({compression}) is not supported (globe's TIFF decoder is built with \
-                     Deflate, LZW and PackBits only); expected one of those or none (re-save \
-                     with gdal_translate -co COMPRESS=DEFLATE)",
-                    compression_name(compression)
-                ),
-            ));
-        }
         let predictor = ifd.scalar(b, 317, Some(1), p)? as u16;
         match (predictor, sample) {
             (1, _) | (2, TiffSample::I16 | TiffSample::U16) | (3, TiffSample::F32) => {}
