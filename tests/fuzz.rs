@@ -47,7 +47,10 @@ use globe::dem::ehdr::EhdrHeader;
 use globe::dem::netcdf::NetcdfFile;
 use globe::dem::pyramid::{Plane, Pyramid, Region};
 use globe::dem::raster::BilinearSampler;
-use globe::dem::{DemError, EhdrMosaic, EhdrRaster, NetcdfRaster, RasterSource};
+use globe::dem::{
+    DemError, EhdrMosaic, EhdrRaster, GeoTiffRaster, HgtRaster, NetcdfRaster, RasterMosaic,
+    RasterSource,
+};
 use globe::procedural::{Detail, DetailError, DetailParams, RoughnessMap};
 use globe::stream::{MmapTileSource, TileKey, TileSource};
 
@@ -201,6 +204,8 @@ fn extensions(target: &str) -> &'static [&'static str] {
         "netcdf" => &["nc", "cdf"],
         "pyramid" => &["globepyr"],
         "detail" => &["json"],
+        "geotiff" => &["tif"],
+        "hgt" => &["hgt"],
         _ => &[],
     }
 }
@@ -1380,6 +1385,110 @@ fn run_netcdf(input: &Input) -> String {
     }
 }
 
+/// GeoTIFF: each `tif` file alone (open, every row, samples), then the mosaic of those that
+/// open. A compressed raster decodes one band of chunks at a time; what it holds is allowed on
+/// top of the input's budget once the target has checked that the file's bytes justify it (no
+/// codec expands more than 1400 times).
+fn run_geotiff(input: &Input) -> String {
+    let mut signature = Vec::new();
+    let mut opened: Vec<(String, Box<dyn RasterSource>)> = Vec::new();
+    for (i, (suffix, bytes)) in input.files.iter().enumerate() {
+        if !suffix.ends_with("tif") {
+            continue;
+        }
+        match GeoTiffRaster::from_bytes(bytes.clone(), format!("fuzz{i}.{suffix}")) {
+            Ok(r) => {
+                let (cw, ch) = r.chunk_size();
+                let chunk = cw * ch * r.sample_type().bytes();
+                assert!(
+                    r.band_bytes() as u64 <= 2 * 1400 * bytes.len() as u64,
+                    "a {}-byte file holds a decoded band of {} bytes",
+                    bytes.len(),
+                    r.band_bytes()
+                );
+                if r.band_bytes() > 0 {
+                    CALLER_BYTES.with(|c| c.set(c.get() + r.band_bytes() + 2 * chunk));
+                }
+                exercise_source(&r);
+                let _ = (r.crs(), r.nodata(), r.pixel_is_point(), r.has_overviews());
+                signature.push(format!(
+                    "ok {:?} {} {}",
+                    r.sample_type(),
+                    r.compression(),
+                    if r.tiled() { "tiles" } else { "strips" }
+                ));
+                opened.push((format!("fuzz{i}"), Box::new(r)));
+            }
+            Err(e) => signature.push(dem_signature(&e)),
+        }
+    }
+    if opened.len() >= 2 {
+        let tile_pixels: usize = opened
+            .iter()
+            .map(|(_, r)| r.grid().rows * r.grid().cols)
+            .sum();
+        match RasterMosaic::from_sources(opened, "fuzz mosaic") {
+            Ok(m) => {
+                let g = m.grid();
+                assert!(
+                    g.rows as u128 * g.cols as u128
+                        <= (RasterMosaic::MAX_BOUNDING_FACTOR * tile_pixels) as u128
+                );
+                exercise_source(&m);
+                signature.push("mosaic ok".into());
+            }
+            Err(e) => signature.push(format!("mosaic {}", dem_signature(&e))),
+        }
+    }
+    signature.join(" | ")
+}
+
+/// SRTM `.hgt`: a tile's name is its only header and its size its only field, and a real tile
+/// (2.9 MB) is far over the fuzzer's input size. So an input is text and bytes: its first
+/// line(s) the file names, then `@`, a mode byte and data: mode 1 repeats the data to a
+/// 1201 × 1201 tile (that buffer is the caller's, allowed on top of the budget), any other
+/// mode hands the data over as it is (the size check).
+fn run_hgt(input: &Input) -> String {
+    let (_, bytes) = &input.files[0];
+    let at = bytes.iter().position(|&b| b == b'@').unwrap_or(bytes.len());
+    let names = String::from_utf8_lossy(&bytes[..at]).into_owned();
+    let rest = bytes.get(at + 1..).unwrap_or_default();
+    let (mode, data) = rest.split_first().map_or((0, &[][..]), |(m, d)| (*m, d));
+    let tile = if mode == 1 && !data.is_empty() {
+        let n = 1201 * 1201 * 2;
+        CALLER_BYTES.with(|c| c.set(c.get() + 3 * n));
+        data.iter().copied().cycle().take(n).collect::<Vec<u8>>()
+    } else {
+        data.to_vec()
+    };
+    let mut signature = Vec::new();
+    let mut opened: Vec<(String, Box<dyn RasterSource>)> = Vec::new();
+    for name in names.lines().take(2) {
+        let _ = globe::dem::hgt::corner_of_name(Path::new(name));
+        match HgtRaster::from_bytes(tile.clone(), name) {
+            Ok(t) => {
+                exercise_source(&t);
+                let _ = (t.value(0, 0), t.value(1200, 1200), t.value(1201, 0));
+                signature.push("ok".to_string());
+                opened.push((name.to_string(), Box::new(t)));
+            }
+            Err(e) => signature.push(dem_signature(&e)),
+        }
+    }
+    if opened.len() == 2 {
+        match RasterMosaic::from_sources(opened, "fuzz mosaic") {
+            Ok(m) => {
+                let g = m.grid();
+                CALLER_BYTES.with(|c| c.set(c.get() + 6 * 4 * g.cols));
+                exercise_source(&m);
+                signature.push("mosaic ok".into());
+            }
+            Err(e) => signature.push(format!("mosaic {}", dem_signature(&e))),
+        }
+    }
+    signature.join(" | ")
+}
+
 /// The pyramid: open (header, level table, tile index, length), then every tile as the
 /// streamer reads it, `verify`, samples and bounds at every level.
 fn run_pyramid(input: &Input) -> String {
@@ -1533,6 +1642,65 @@ fn layout_ehdr(suffix: &str, bytes: &[u8]) -> Shape {
             Numbers::BigEndian
         },
         hot: if text { bytes.len() } else { 0 },
+        fields: Vec::new(),
+    }
+}
+
+/// A classic TIFF's first IFD: the entry count, and each entry's type, count and value or
+/// offset (kinds 0 to 3), in the file's byte order.
+fn layout_tiff(_: &str, b: &[u8]) -> Shape {
+    let little = b.starts_with(b"II");
+    let u16_at = |at: usize| {
+        b.get(at..at + 2).map(|w| {
+            let w = [w[0], w[1]];
+            if little {
+                u16::from_le_bytes(w)
+            } else {
+                u16::from_be_bytes(w)
+            }
+        })
+    };
+    let u32_at = |at: usize| {
+        b.get(at..at + 4).map(|w| {
+            let w: [u8; 4] = w.try_into().expect("4 bytes");
+            if little {
+                u32::from_le_bytes(w)
+            } else {
+                u32::from_be_bytes(w)
+            }
+        })
+    };
+    let mut fields = vec![(4, 4, 1)];
+    let mut hot = b.len().min(512);
+    if let (Some(ifd), true) = (u32_at(4).map(|v| v as usize), b.len() > 8)
+        && let Some(n) = u16_at(ifd)
+    {
+        fields.push((ifd, 2, 0));
+        for k in 0..(n as usize).min(64) {
+            let e = ifd + 2 + 12 * k;
+            if e + 12 > b.len() {
+                break;
+            }
+            fields.extend([(e + 2, 2, 1), (e + 4, 4, 2), (e + 8, 4, 3)]);
+            hot = hot.max(e + 12);
+        }
+    }
+    Shape {
+        numbers: if little {
+            Numbers::LittleEndian
+        } else {
+            Numbers::BigEndian
+        },
+        hot: hot.min(b.len()),
+        fields,
+    }
+}
+
+/// Text (the names) up to the `@`, big-endian heights after it.
+fn layout_hgt(_: &str, b: &[u8]) -> Shape {
+    Shape {
+        numbers: Numbers::Text,
+        hot: b.iter().position(|&c| c == b'@').unwrap_or(b.len()),
         fields: Vec::new(),
     }
 }
@@ -1828,7 +1996,31 @@ const DETAIL: Target = Target {
     dictionary: DETAIL_WORDS,
 };
 
-const TARGETS: [&Target; 4] = [&EHDR, &NETCDF, &PYRAMID, &DETAIL];
+const GEOTIFF: Target = Target {
+    name: "geotiff",
+    ci_iters: 40_000,
+    run: run_geotiff,
+    layout: layout_tiff,
+    fix_up: None,
+    dictionary: &[
+        "II*\0", "MM\0*", "II+\0", "EPSG", "WGS 84|", "-32768", "nan",
+    ],
+};
+
+const HGT: Target = Target {
+    name: "hgt",
+    // An accepted input builds and reads a whole 1201² tile, alone and as a mosaic (about
+    // 16 ms here): 400 take 4 to 7 s on the 2-core VM.
+    ci_iters: 400,
+    run: run_hgt,
+    layout: layout_hgt,
+    fix_up: None,
+    dictionary: &[
+        "N", "S", "E", "W", "n00e000", "S90W180", "N89E180", ".hgt", "\n",
+    ],
+};
+
+const TARGETS: [&Target; 6] = [&EHDR, &NETCDF, &PYRAMID, &DETAIL, &GEOTIFF, &HGT];
 
 #[test]
 fn fuzz_ehdr() {
@@ -1848,6 +2040,16 @@ fn fuzz_pyramid() {
 #[test]
 fn fuzz_detail() {
     fuzz_target(&DETAIL);
+}
+
+#[test]
+fn fuzz_geotiff() {
+    fuzz_target(&GEOTIFF);
+}
+
+#[test]
+fn fuzz_hgt() {
+    fuzz_target(&HGT);
 }
 
 /// Every seed (the corpus less the `crash-*` inputs) is accepted by its parser: the mutations
@@ -2021,6 +2223,26 @@ fn regression_netcdf_record_size_overflow() {
 /// An infinite extent is not "close" to the level-0 grid's footprint. Found by `fuzz_pyramid`:
 /// a header CRC-valid file whose western extent was +inf opened (the tolerance, relative to
 /// the larger value, was infinite too) and sampled NaN everywhere.
+/// A GeoKeyDirectory stored as LONG8 whose key count times 4 overflowed (a panic in debug
+/// builds); found by `fuzz_geotiff` once a file without a CRS was accepted. Now a header error
+/// on the directory.
+#[test]
+fn regression_geotiff_geokey_count_overflow() {
+    let input = corpus_input("geotiff", "crash-geokey-count-overflow");
+    let refused: Vec<String> = input
+        .files
+        .iter()
+        .filter_map(|(suffix, bytes)| GeoTiffRaster::from_bytes(bytes.clone(), suffix).err())
+        .filter(|e| matches!(e, DemError::Header { field, .. } if field == "GeoKeyDirectory"))
+        .map(|e| e.to_string())
+        .collect();
+    assert!(
+        refused.iter().any(|m| m.contains("keys; expected")),
+        "{refused:?}"
+    );
+    assert!(run_geotiff(&input).contains("header GeoKeyDirectory"));
+}
+
 #[test]
 fn regression_pyramid_infinite_extent() {
     let input = corpus_input("pyramid", "crash-extent-infinite");
@@ -2516,4 +2738,155 @@ fn write_seeds() {
         .expect("saved");
     let bytes = std::fs::read(t("painted.json")).expect("painted");
     write_seed("detail", "painted.json", &bytes);
+
+    write_raster_seeds();
+}
+
+/// The GeoTIFF and SRTM seeds alone: `cargo test --test fuzz write_raster_seeds -- --ignored`.
+#[test]
+#[ignore = "writes tests/fuzz_corpus/{geotiff,hgt}; needs ETOPO5 and GDAL"]
+fn write_raster_seeds_only() {
+    write_raster_seeds();
+}
+
+/// GeoTIFFs GDAL writes from the seeds' ETOPO5 window (strips and tiles, Deflate/LZW/none, the
+/// three sample types, both byte orders, PixelIsPoint with GDAL_NODATA, a COG, and a pair of
+/// halves for the mosaic); SRTM inputs from the start of a tile GDAL's SRTMHGT driver wrote.
+fn write_raster_seeds() {
+    let tmp = tempfile::tempdir().expect("temporary folder");
+    let t = |name: &str| tmp.path().join(name).to_string_lossy().into_owned();
+    let (x0, y0, nx, ny) = WINDOW;
+    let win = |x: usize, w: usize| [x, y0, w, ny].map(|v| v.to_string());
+    let variants: [(&str, &[&str], [String; 4]); 8] = [
+        (
+            "gdal-int16-deflate",
+            &[
+                "-ot",
+                "Int16",
+                "-co",
+                "COMPRESS=DEFLATE",
+                "-co",
+                "BLOCKYSIZE=3",
+            ],
+            win(x0, nx),
+        ),
+        (
+            "gdal-uint16-lzw",
+            &[
+                "-ot",
+                "UInt16",
+                "-co",
+                "COMPRESS=LZW",
+                "-co",
+                "PREDICTOR=2",
+                "-co",
+                "BLOCKYSIZE=4",
+            ],
+            win(x0, nx),
+        ),
+        (
+            "gdal-float32-tiled",
+            &[
+                "-ot",
+                "Float32",
+                "-co",
+                "TILED=YES",
+                "-co",
+                "BLOCKXSIZE=16",
+                "-co",
+                "BLOCKYSIZE=16",
+                "-co",
+                "COMPRESS=DEFLATE",
+                "-co",
+                "PREDICTOR=3",
+            ],
+            win(x0, nx),
+        ),
+        (
+            "gdal-int16-big-endian",
+            &["-ot", "Int16", "-co", "ENDIANNESS=BIG"],
+            win(x0, nx),
+        ),
+        (
+            "gdal-point-nodata",
+            &[
+                "-ot",
+                "Int16",
+                "-mo",
+                "AREA_OR_POINT=Point",
+                "-a_nodata",
+                "-32768",
+            ],
+            win(x0, nx),
+        ),
+        (
+            "gdal-cog",
+            &["-of", "COG", "-ot", "Int16", "-co", "COMPRESS=LZW"],
+            win(x0, nx),
+        ),
+        (
+            "gdal-pair.1",
+            &["-ot", "Int16", "-co", "COMPRESS=DEFLATE"],
+            win(x0, nx / 2),
+        ),
+        (
+            "gdal-pair.2",
+            &["-ot", "Int16", "-co", "COMPRESS=DEFLATE"],
+            win(x0 + nx / 2, nx / 2),
+        ),
+    ];
+    for (name, options, srcwin) in variants {
+        let out = t(&format!("{name}.tif"));
+        let srcwin: Vec<&str> = srcwin.iter().map(String::as_str).collect();
+        let args = [
+            &["-q", "-a_srs", "EPSG:4326"][..],
+            options,
+            &["-srcwin"],
+            &srcwin,
+            &[ETOPO5, &out],
+        ]
+        .concat();
+        command("gdal_translate", &args);
+        write_seed(
+            "geotiff",
+            &format!("{name}.tif"),
+            &std::fs::read(&out).expect("GDAL's GeoTIFF"),
+        );
+    }
+    // One SRTM tile from ETOPO5 (resampled to 3″), its first 4 KB as the repeated data.
+    let h = 0.5 / 1200.0;
+    let hgt = t("N46E010.hgt");
+    let ullr = [10.0 - h, 47.0 + h, 11.0 + h, 46.0 - h].map(|v| v.to_string());
+    let ullr: Vec<&str> = ullr.iter().map(String::as_str).collect();
+    let args = [
+        &[
+            "-q",
+            "-of",
+            "SRTMHGT",
+            "-ot",
+            "Int16",
+            "-a_nodata",
+            "none",
+            "-r",
+            "bilinear",
+        ][..],
+        &[
+            "-outsize", "1201", "1201", "-projwin", "10", "47", "11", "46", "-a_ullr",
+        ],
+        &ullr,
+        &[ETOPO5, &hgt],
+    ]
+    .concat();
+    command("gdal_translate", &args);
+    let data = std::fs::read(&hgt).expect("GDAL's .hgt");
+    for (name, names) in [
+        ("alps-pair", "N46E010.hgt\nN46E011.hgt\n"),
+        ("south-west", "s01w072.HGT\n"),
+    ] {
+        let mut seed = names.as_bytes().to_vec();
+        seed.push(b'@');
+        seed.push(1);
+        seed.extend_from_slice(&data[..4096]);
+        write_seed("hgt", &format!("{name}.hgt"), &seed);
+    }
 }

@@ -24,9 +24,11 @@ enum Command {
     /// Make the small Earth embedded in globe (10′, bathymetry included) from ETOPO5.
     Earth(earth::EarthArgs),
     /// Build a pyramid file (tiled avg/min/max levels down to one tile, checksummed) from a
-    /// raster, a folder of tiles or a netCDF-3 file, in bounded memory, with progress.
+    /// raster (EHdr, netCDF-3, GeoTIFF/COG, SRTM .hgt) or a folder of tiles, in bounded memory,
+    /// with progress.
     Import(pyramid_cmd::ImportArgs),
-    /// Describe a pyramid file: source, extents, levels, tiles, height range.
+    /// Describe a pyramid file (source, extents, levels, tiles, height range), or a raster
+    /// `import` reads (its grid and extents).
     Info(pyramid_cmd::FileArg),
     /// Check every tile of a pyramid file against its checksum.
     Verify(pyramid_cmd::FileArg),

@@ -11,8 +11,10 @@ use globe::progress::Progress;
 
 #[derive(Args)]
 pub struct ImportArgs {
-    /// A folder of EHdr tiles (GTOPO30's 33 or any subset, one mosaic), one EHdr raster (.HDR
-    /// or its data file), or a netCDF-3 file (ETOPO5).
+    /// A folder of EHdr tiles (GTOPO30's 33 or any subset, one mosaic) or of SRTM .hgt tiles
+    /// or GeoTIFFs (one mosaic), one EHdr raster (.HDR or its data file), a netCDF-3 file
+    /// (ETOPO5), a GeoTIFF or COG (.tif; first image only, overviews ignored), or an SRTM .hgt
+    /// tile.
     #[arg(long)]
     input: PathBuf,
     /// The pyramid file to write (written as FILE.partial and renamed when complete).
@@ -76,14 +78,47 @@ pub fn import(args: &ImportArgs) -> anyhow::Result<()> {
 
 #[derive(Args)]
 pub struct FileArg {
-    /// A pyramid file made by `globe-data import`.
+    /// A pyramid file made by `globe-data import` (`info` also describes any raster `import`
+    /// reads).
     file: PathBuf,
 }
 
+/// A pyramid's header, or what `import` would read from a raster: its grid and extents.
 pub fn info(args: &FileArg) -> anyhow::Result<()> {
-    let p = Pyramid::open(&args.file)?;
-    print!("{}", p.info());
+    if !args.file.is_dir() && starts_with_pyramid_magic(&args.file) {
+        let p = Pyramid::open(&args.file)?;
+        print!("{}", p.info());
+        return Ok(());
+    }
+    let source = open_raster(&args.file, None)
+        .with_context(|| format!("cannot read {}", args.file.display()))?;
+    let g = source.grid();
+    println!("source: {}", source.describe());
+    println!("pixels: {} × {}", g.cols, g.rows);
+    println!(
+        "pixel size: {}° × {}° ({:.1}″ × {:.1}″)",
+        g.dlon_deg,
+        g.dlat_deg,
+        g.dlon_deg * 3600.0,
+        g.dlat_deg * 3600.0
+    );
+    println!(
+        "extents (pixel edges): west {}°, east {}°, north {}°, south {}°",
+        g.lon0_deg - 0.5 * g.dlon_deg,
+        g.lon0_deg + (g.cols as f64 - 0.5) * g.dlon_deg,
+        g.lat0_deg + 0.5 * g.dlat_deg,
+        g.lat0_deg - (g.rows as f64 - 0.5) * g.dlat_deg
+    );
     Ok(())
+}
+
+fn starts_with_pyramid_magic(path: &std::path::Path) -> bool {
+    use std::io::Read;
+    let mut magic = [0u8; 8];
+    std::fs::File::open(path)
+        .and_then(|mut f| f.read_exact(&mut magic))
+        .is_ok()
+        && magic == globe::dem::pyramid::MAGIC
 }
 
 pub fn verify(args: &FileArg) -> anyhow::Result<()> {

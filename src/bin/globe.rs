@@ -170,7 +170,8 @@ impl MeshArgs {
 struct DemArgs {
     /// `embedded` (the real Earth inside the binary: ETOPO5 at 10′), `analytic` (the test
     /// planet), a pyramid file made by `globe-data import`, or a raster to import into the cache
-    /// first (a folder of GTOPO30-style tiles, one .HDR/.DEM, or a netCDF-3 file such as ETOPO5).
+    /// first (a folder of GTOPO30-style tiles, of SRTM .hgt tiles or of GeoTIFFs; one .HDR/.DEM;
+    /// a netCDF-3 file such as ETOPO5; a GeoTIFF/COG; an SRTM .hgt tile).
     #[arg(long, value_name = "SOURCE", default_value = "embedded")]
     dem: String,
     /// Procedural detail below the data's resolution: `default` (on), `off`, or a detail

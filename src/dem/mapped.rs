@@ -178,6 +178,11 @@ impl MappedFile {
         }
     }
 
+    /// The path the bytes came from (or are named by).
+    pub(crate) fn path(&self) -> &Path {
+        &self.path
+    }
+
     /// The mapped file as opened and now, and what its path names now (one `fstat`, one
     /// `stat`); None for bytes in memory, which cannot change.
     pub(crate) fn observe(&self) -> Option<Observed> {

@@ -250,7 +250,8 @@ impl Terrain {
 
 /// The terrain named on a command line (`--dem`): `embedded` (the default real Earth),
 /// `analytic` (the test planet), a pyramid file, or any raster globe reads (a folder of EHdr
-/// tiles, a `.HDR`/`.DEM`, a netCDF-3 file), imported into the cache first with `progress`
+/// tiles, of SRTM `.hgt` tiles or of GeoTIFFs, a `.HDR`/`.DEM`, a netCDF-3 file, a GeoTIFF/COG,
+/// an `.hgt` tile: `dem::raster::open_raster`), imported into the cache first with `progress`
 /// called with the fraction done.
 pub fn open_terrain(
     spec: &str,
