@@ -29,10 +29,13 @@
 //! (replace it by renaming, as `globe-data import` does).
 
 pub mod cache;
+pub mod remote;
 pub mod source;
 pub mod streamer;
 
 pub use cache::TileCache;
+pub use crate::dem::remote::{RemoteOptions, RemoteStats, RemoteStore};
+pub use remote::RemoteTileSource;
 pub use source::{FaultSettings, FaultyTileSource, MmapTileSource, TileData, TileSource};
 pub use streamer::raw_read_rate;
 pub use streamer::{Completion, StreamStats, TileStreamer};
