@@ -566,6 +566,7 @@ async fn run_round(store: &RemoteStore, round: Vec<(Range<u64>, Slot)>) {
                         start: r.start,
                         end: r.end,
                         message: match e {
+                            RemoteError::Request { message, .. } if run == *r => message.clone(),
                             RemoteError::Request { message, .. } => format!(
                                 "in the request for bytes {}..{}: {message}",
                                 run.start, run.end
