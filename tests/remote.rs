@@ -144,7 +144,14 @@ fn moto_with(file: &Path) -> Option<Server> {
     let dir = tempfile::tempdir().unwrap();
     let port = free_port();
     let mut child = Command::new("python3")
-        .args(["-m", "moto.server", "-H", "127.0.0.1", "-p", &port.to_string()])
+        .args([
+            "-m",
+            "moto.server",
+            "-H",
+            "127.0.0.1",
+            "-p",
+            &port.to_string(),
+        ])
         .current_dir(dir.path())
         .stdout(Stdio::null())
         .stderr(Stdio::null())
@@ -218,7 +225,14 @@ fn stream_all_equal(remote: &Arc<Pyramid>, local: &Arc<Pyramid>, deadline: Durat
 /// As [`stream_all_equal`], from any source of `local`'s tiles.
 fn stream_all_from(source: Arc<dyn TileSource>, local: &Arc<Pyramid>, deadline: Duration) -> u64 {
     let keys = all_keys(local);
-    stream_keys(source, &keys, local, deadline, &StreamSettings::default(), &mut |_, _| {})
+    stream_keys(
+        source,
+        &keys,
+        local,
+        deadline,
+        &StreamSettings::default(),
+        &mut |_, _| {},
+    )
 }
 
 /// Streams `keys` from `source`, each checked against `local`'s tile; `event(loaded, failed)`
@@ -300,7 +314,14 @@ fn http_tiles_equal_the_local_files_and_a_second_visit_costs_no_request() {
     let settings = StreamSettings::default();
     let timed = |source: Arc<dyn TileSource>| {
         let t = Instant::now();
-        stream_keys(source, &keys, &local, Duration::from_secs(120), &settings, &mut |_, _| {});
+        stream_keys(
+            source,
+            &keys,
+            &local,
+            Duration::from_secs(120),
+            &settings,
+            &mut |_, _| {},
+        );
         t.elapsed().as_secs_f64()
     };
     let fresh = tempfile::tempdir().unwrap();
@@ -326,7 +347,10 @@ fn http_tiles_equal_the_local_files_and_a_second_visit_costs_no_request() {
     assert!(s.resident_hits > 0);
     assert_eq!(s.tiles_fetched + s.resident_hits, tiles);
     assert_eq!(s.tile_bytes_used, s.tiles_fetched * tile_bytes);
-    assert_eq!(s.bytes_requested - opened.bytes_requested, s.tile_bytes_used);
+    assert_eq!(
+        s.bytes_requested - opened.bytes_requested,
+        s.tile_bytes_used
+    );
     assert!(s.requests - opened.requests <= s.tiles_fetched);
     assert_eq!((s.request_errors, s.rejected_tiles), (0, 0));
     // The synchronous readers agree too (fetched blocking, through the same store).
@@ -355,7 +379,10 @@ fn http_tiles_equal_the_local_files_and_a_second_visit_costs_no_request() {
         s2.requests - opened2.requests
     );
     assert_eq!(s2.requests, 1, "the header only (one request: it is short)");
-    assert_eq!(s2.disk_hits, tiles, "the polar rows at open, the rest streamed");
+    assert_eq!(
+        s2.disk_hits, tiles,
+        "the polar rows at open, the rest streamed"
+    );
 
     // A cached tile corrupted on disk: refused, removed, fetched again.
     let cached: Vec<PathBuf> = walk(cache.path())
@@ -383,12 +410,19 @@ fn http_tiles_equal_the_local_files_and_a_second_visit_costs_no_request() {
         .unwrap()
         .read(key)
         .unwrap();
-    assert_eq!(tile.avg, MmapTileSource::new(local.clone()).read(key).unwrap().avg);
+    assert_eq!(
+        tile.avg,
+        MmapTileSource::new(local.clone()).read(key).unwrap().avg
+    );
     let after = store3.stats();
     assert_eq!(after.requests - before.requests, 1);
     assert_eq!(after.disk_hits, before.disk_hits);
     assert_eq!(std::fs::read(victim).unwrap().len(), bytes.len());
-    assert_ne!(std::fs::read(victim).unwrap(), bytes, "rewritten from the server");
+    assert_ne!(
+        std::fs::read(victim).unwrap(),
+        bytes,
+        "rewritten from the server"
+    );
 }
 
 fn walk(dir: &Path) -> Vec<PathBuf> {
@@ -434,7 +468,10 @@ fn s3_tiles_equal_the_local_files() {
     assert_eq!(s.tiles_fetched + s.resident_hits, local.info().tiles as u64);
     // A key that is not there: an error naming the URL.
     let e = Pyramid::open_remote("s3://globe-test/missing.globepyr", opts).unwrap_err();
-    assert!(e.to_string().contains("s3://globe-test/missing.globepyr"), "{e}");
+    assert!(
+        e.to_string().contains("s3://globe-test/missing.globepyr"),
+        "{e}"
+    );
 }
 
 /// What the misbehaving server does to range requests.
@@ -731,7 +768,10 @@ fn the_flight_over_http_settles_to_the_local_files_frame() {
         );
         assert!(run.settled, "{latency} ms: settled");
         assert_eq!(run.final_vs_loaded_px, Some(0));
-        assert_eq!(differ, 0, "{latency} ms: the settled frame equals the local file's");
+        assert_eq!(
+            differ, 0,
+            "{latency} ms: the settled frame equals the local file's"
+        );
         assert_eq!(s.rejected_tiles, 0);
     }
 }

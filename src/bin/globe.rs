@@ -1002,7 +1002,11 @@ fn bench(args: &BenchArgs) -> anyhow::Result<ExitCode> {
                 asked as f64 / 1048576.0,
                 used as f64 / 1048576.0,
                 s.tiles_fetched - b.tiles_fetched,
-                if used > 0 { asked as f64 / used as f64 } else { 0.0 },
+                if used > 0 {
+                    asked as f64 / used as f64
+                } else {
+                    0.0
+                },
                 s.disk_hits - b.disk_hits,
                 s.resident_hits - b.resident_hits,
                 s.rejected_tiles - b.rejected_tiles,

@@ -184,78 +184,79 @@ impl RemoteStore {
             retry_timeout: options.timeout,
             ..Default::default()
         };
-        let (store, location): (Arc<dyn ObjectStore>, ObjPath) = if let Some(rest) =
-            url.strip_prefix("s3://")
-        {
-            let (bucket, key) = rest.split_once('/').ok_or_else(|| RemoteError::Url {
-                url: url.to_string(),
-                message: "expected s3://BUCKET/KEY".into(),
-            })?;
-            if bucket.is_empty() || key.is_empty() {
+        let (store, location): (Arc<dyn ObjectStore>, ObjPath) =
+            if let Some(rest) = url.strip_prefix("s3://") {
+                let (bucket, key) = rest.split_once('/').ok_or_else(|| RemoteError::Url {
+                    url: url.to_string(),
+                    message: "expected s3://BUCKET/KEY".into(),
+                })?;
+                if bucket.is_empty() || key.is_empty() {
+                    return Err(RemoteError::Url {
+                        url: url.to_string(),
+                        message: "expected s3://BUCKET/KEY (bucket or key empty)".into(),
+                    });
+                }
+                let endpoint = options
+                    .s3_config
+                    .iter()
+                    .find(|(k, _)| k == "aws_endpoint" || k == "aws_endpoint_url")
+                    .map(|(_, v)| v.clone())
+                    .or_else(|| std::env::var("AWS_ENDPOINT_URL").ok())
+                    .or_else(|| std::env::var("AWS_ENDPOINT").ok())
+                    .unwrap_or_default();
+                let loopback = ["http://127.", "http://localhost", "http://[::1]"]
+                    .iter()
+                    .any(|p| endpoint.starts_with(p));
+                let client = if loopback {
+                    client.with_allow_http(true)
+                } else {
+                    client
+                };
+                let mut b = object_store::aws::AmazonS3Builder::from_env()
+                    .with_bucket_name(bucket)
+                    .with_client_options(client)
+                    .with_retry(retry);
+                if std::env::var_os("AWS_REGION").is_none()
+                    && std::env::var_os("AWS_DEFAULT_REGION").is_none()
+                {
+                    b = b.with_region("us-east-1");
+                }
+                for (k, v) in &options.s3_config {
+                    let key = k
+                        .parse()
+                        .map_err(|e: object_store::Error| RemoteError::Url {
+                            url: url.to_string(),
+                            message: format!("S3 setting {k}: {e}"),
+                        })?;
+                    b = b.with_config(key, v);
+                }
+                let store = b.build().map_err(store_err)?;
+                let location = ObjPath::parse(key).map_err(|e| RemoteError::Url {
+                    url: url.to_string(),
+                    message: e.to_string(),
+                })?;
+                (Arc::new(store), location)
+            } else if url.starts_with("http://") || url.starts_with("https://") {
+                let (base, name) = url
+                    .rsplit_once('/')
+                    .filter(|(b, n)| !n.is_empty() && !b.ends_with('/'))
+                    .ok_or_else(|| RemoteError::Url {
+                        url: url.to_string(),
+                        message: "expected http(s)://HOST/…/FILE".into(),
+                    })?;
+                let store = object_store::http::HttpBuilder::new()
+                    .with_url(base)
+                    .with_client_options(client.with_allow_http(true))
+                    .with_retry(retry)
+                    .build()
+                    .map_err(store_err)?;
+                (Arc::new(store), ObjPath::from(name))
+            } else {
                 return Err(RemoteError::Url {
                     url: url.to_string(),
-                    message: "expected s3://BUCKET/KEY (bucket or key empty)".into(),
+                    message: "expected http://, https:// or s3://".into(),
                 });
-            }
-            let endpoint = options
-                .s3_config
-                .iter()
-                .find(|(k, _)| k == "aws_endpoint" || k == "aws_endpoint_url")
-                .map(|(_, v)| v.clone())
-                .or_else(|| std::env::var("AWS_ENDPOINT_URL").ok())
-                .or_else(|| std::env::var("AWS_ENDPOINT").ok())
-                .unwrap_or_default();
-            let loopback = ["http://127.", "http://localhost", "http://[::1]"]
-                .iter()
-                .any(|p| endpoint.starts_with(p));
-            let client = if loopback {
-                client.with_allow_http(true)
-            } else {
-                client
             };
-            let mut b = object_store::aws::AmazonS3Builder::from_env()
-                .with_bucket_name(bucket)
-                .with_client_options(client)
-                .with_retry(retry);
-            if std::env::var_os("AWS_REGION").is_none()
-                && std::env::var_os("AWS_DEFAULT_REGION").is_none()
-            {
-                b = b.with_region("us-east-1");
-            }
-            for (k, v) in &options.s3_config {
-                let key = k.parse().map_err(|e: object_store::Error| RemoteError::Url {
-                    url: url.to_string(),
-                    message: format!("S3 setting {k}: {e}"),
-                })?;
-                b = b.with_config(key, v);
-            }
-            let store = b.build().map_err(store_err)?;
-            let location = ObjPath::parse(key).map_err(|e| RemoteError::Url {
-                url: url.to_string(),
-                message: e.to_string(),
-            })?;
-            (Arc::new(store), location)
-        } else if url.starts_with("http://") || url.starts_with("https://") {
-            let (base, name) = url
-                .rsplit_once('/')
-                .filter(|(b, n)| !n.is_empty() && !b.ends_with('/'))
-                .ok_or_else(|| RemoteError::Url {
-                    url: url.to_string(),
-                    message: "expected http(s)://HOST/…/FILE".into(),
-                })?;
-            let store = object_store::http::HttpBuilder::new()
-                .with_url(base)
-                .with_client_options(client.with_allow_http(true))
-                .with_retry(retry)
-                .build()
-                .map_err(store_err)?;
-            (Arc::new(store), ObjPath::from(name))
-        } else {
-            return Err(RemoteError::Url {
-                url: url.to_string(),
-                message: "expected http://, https:// or s3://".into(),
-            });
-        };
         let limit = Arc::new(tokio::sync::Semaphore::new(options.max_requests.max(1)));
         let mut s = Self {
             url: url.to_string(),
@@ -606,7 +607,9 @@ async fn join_all<T, F: std::future::Future<Output = T>>(futures: Vec<F>) -> Vec
         }
     })
     .await;
-    out.into_iter().map(|v| v.expect("every future finished")).collect()
+    out.into_iter()
+        .map(|v| v.expect("every future finished"))
+        .collect()
 }
 
 /// Fetched tiles on local disk, one file per tile (named by its index in the pyramid's tile

@@ -33,8 +33,8 @@ pub mod remote;
 pub mod source;
 pub mod streamer;
 
-pub use cache::TileCache;
 pub use crate::dem::remote::{RemoteOptions, RemoteStats, RemoteStore};
+pub use cache::TileCache;
 pub use remote::RemoteTileSource;
 pub use source::{FaultSettings, FaultyTileSource, MmapTileSource, TileData, TileSource};
 pub use streamer::raw_read_rate;

@@ -47,4 +47,3 @@ impl TileSource for RemoteTileSource {
         })
     }
 }
-

@@ -10,8 +10,8 @@ use super::format::{Encoding, Extents, Header, LevelGeom, TileEntry};
 use crate::dem::change::classify;
 use crate::dem::mapped::{MappedFile, OpenFile};
 use crate::dem::raster::GeoGrid;
-use crate::dem::{DemError, FileChange};
 use crate::dem::remote::{RemoteOptions, RemoteStore};
+use crate::dem::{DemError, FileChange};
 
 /// Reads the stored code of (level, plane, row, col); `None` when the tile holding it is not
 /// at hand (a cache of streamed tiles). The map itself always has it.
@@ -351,7 +351,12 @@ impl Pyramid {
     /// A remote pyramid's tile payload for the streamer: from memory when resident, else
     /// through the store (disk cache or a batched range request), CRC and codes checked.
     /// Not kept here (the streamer's cache holds it).
-    pub fn remote_tile_payload(&self, level: usize, tx: usize, ty: usize) -> Result<Vec<u8>, DemError> {
+    pub fn remote_tile_payload(
+        &self,
+        level: usize,
+        tx: usize,
+        ty: usize,
+    ) -> Result<Vec<u8>, DemError> {
         let index = self.index_of(level, tx, ty)?;
         let r = self.remote.as_ref().ok_or_else(|| {
             DemError::Other(format!("{}: not a remote pyramid", self.path.display()))
@@ -409,7 +414,13 @@ impl Pyramid {
     }
 
     /// Checks a tile payload against its index entry's CRC and the format's rules.
-    fn check_payload(&self, level: usize, tx: usize, ty: usize, bytes: &[u8]) -> Result<(), DemError> {
+    fn check_payload(
+        &self,
+        level: usize,
+        tx: usize,
+        ty: usize,
+        bytes: &[u8],
+    ) -> Result<(), DemError> {
         let e = self.tile_entry(level, tx, ty)?;
         if bytes.len() != e.len as usize {
             return Err(DemError::Truncated {
