@@ -335,7 +335,7 @@ fn http_tiles_equal_the_local_files_and_a_second_visit_costs_no_request() {
         local_s / remote_s
     );
     let tiles = local.info().tiles as u64;
-    let tile_bytes = local.info().tile_bytes as u64;
+    let tile_bytes = local.info().tile_bytes;
     eprintln!(
         "nginx: {tiles} tiles in {} requests ({} at open), {} B requested for {} B of tiles",
         s.requests - opened.requests,
@@ -746,6 +746,7 @@ fn the_flight_over_http_settles_to_the_local_files_frame() {
         };
         let terrain = globe::terrain::open_terrain_with(&url, remote_opts, |_| {}).unwrap();
         let store = terrain.dem().unwrap().pyramid().remote().unwrap().clone();
+        let opened = store.stats();
         let run = bench::run(ctx, &terrain, &opts, |_, _| {}).unwrap();
         let s = store.stats();
         let differ = bench::pixels_differing(
@@ -754,17 +755,21 @@ fn the_flight_over_http_settles_to_the_local_files_frame() {
         );
         eprintln!(
             "http + {latency} ms: CPU ms/frame median {:.2} (local {:.2}, ratio {:.2}), full detail \
-             {:.2} s after the flight (local {:.2} s), {} requests, {} B requested for {} B of tiles \
-             ({} tiles), settled frame vs local {differ} px",
+             {:.2} s after the flight (local {:.2} s); at open {} requests, {} B; then {} requests, \
+             {} B requested for {} B of tiles ({} tiles, {} from memory), settled frame vs local \
+             {differ} px",
             median(&run),
             median(&local),
             median(&run) / median(&local),
             run.settle_s.unwrap(),
             local.settle_s.unwrap(),
-            s.requests,
-            s.bytes_requested,
+            opened.requests,
+            opened.bytes_requested,
+            s.requests - opened.requests,
+            s.bytes_requested - opened.bytes_requested,
             s.tile_bytes_used,
-            s.tiles_fetched
+            s.tiles_fetched,
+            s.resident_hits
         );
         assert!(run.settled, "{latency} ms: settled");
         assert_eq!(run.final_vs_loaded_px, Some(0));
