@@ -2,7 +2,8 @@
 //! (DESIGN.md "Data flow").
 //!
 //! ```text
-//! TileSource (mmap, or a fault-injecting wrapper)
+//! TileSource (mmap; a remote object: memory, disk cache or coalesced range requests,
+//!             `remote.rs`; or a fault-injecting wrapper around either)
 //!     │ blocking reads on tokio's blocking pool, CRC-checked, retried with back-off
 //!     ▼
 //! TileStreamer: priority queue (coarse levels first, then finer ones nearest the viewer),
