@@ -15,11 +15,13 @@ have_vulkan() {
 
 # What the tests need that a fresh machine lacks: a Vulkan driver (Mesa's software one,
 # lavapipe), GDAL's command-line tools (an independent EHdr reader to cross-check against) and
-# Debian's ferret-datasets (ETOPO5, the real Earth the embedded model comes from).
+# Debian's ferret-datasets (ETOPO5, the real Earth the embedded model comes from), and nginx
+# (tests/remote.rs serves a pyramid with range requests; run as this user from a temp dir).
 packages=()
 if ! have_vulkan; then packages+=(mesa-vulkan-drivers libvulkan1); fi
 if ! command -v gdallocationinfo >/dev/null; then packages+=(gdal-bin); fi
 if [ ! -f /usr/share/ferret-vis/data/etopo5.cdf ]; then packages+=(ferret-datasets); fi
+if [ ! -x /usr/sbin/nginx ] && ! command -v nginx >/dev/null; then packages+=(nginx); fi
 if [ ${#packages[@]} -gt 0 ]; then
     echo "scripts/test.sh: installing ${packages[*]}" >&2
     if ! command -v apt-get >/dev/null; then
@@ -38,6 +40,13 @@ if ! python3 -c 'import mpmath' 2>/dev/null; then
     python3 -m pip install --quiet mpmath || python3 -m pip install --quiet --break-system-packages mpmath
 fi
 python3 scripts/map_transform_vectors.py --check tests/data/map_transform_vectors.csv
+
+# The S3-compatible server of tests/remote.rs: moto's server (pure Python wheels, seconds to
+# install, nothing to compile; boto3 comes with it and uploads the test object).
+if ! python3 -c 'import moto.server, boto3' 2>/dev/null; then
+    echo "scripts/test.sh: installing moto[server] (pip)" >&2
+    python3 -m pip install --quiet 'moto[server]' || python3 -m pip install --quiet --break-system-packages 'moto[server]'
+fi
 
 export GLOBE_REQUIRE_GPU=1
 export GLOBE_REQUIRE_DATA=1

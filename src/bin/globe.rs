@@ -182,13 +182,41 @@ struct DemArgs {
     /// surface too); off: the bathymetry, tinted.
     #[arg(long, value_name = "on|off", default_value = "on")]
     water: Switch,
+    /// A remote pyramid (`--dem https://…`, `s3://bucket/key`): the local disk cache of fetched
+    /// tiles, MiB (0: none), so a second visit costs no request.
+    #[arg(long, value_name = "MIB", default_value_t = 512)]
+    disk_cache_mb: u64,
+    /// Where that disk cache lives (default: the cache folder's `remote/`).
+    #[arg(long, value_name = "DIR")]
+    disk_cache_dir: Option<std::path::PathBuf>,
+    /// A remote pyramid: requests in flight at most.
+    #[arg(long, value_name = "N", default_value_t = 8)]
+    remote_requests: usize,
+    /// A remote pyramid: added before every request (a simulated round trip, for measuring).
+    #[arg(long, value_name = "MS", default_value_t = 0)]
+    remote_latency_ms: u64,
+    /// A remote pyramid: the coarsest levels fitting in this many KiB are fetched at open.
+    #[arg(long, value_name = "KIB", default_value_t = 4096)]
+    remote_prefetch_kb: u64,
 }
 
 impl DemArgs {
+    fn remote_options(&self) -> globe::stream::RemoteOptions {
+        globe::stream::RemoteOptions {
+            disk_cache_bytes: self.disk_cache_mb << 20,
+            disk_cache_dir: self.disk_cache_dir.clone(),
+            max_requests: self.remote_requests.max(1),
+            latency: std::time::Duration::from_millis(self.remote_latency_ms),
+            prefetch_bytes: self.remote_prefetch_kb << 10,
+            ..Default::default()
+        }
+    }
+
     fn open(&self) -> anyhow::Result<Terrain> {
         // Shown only once an import starts (an open from the cache reports nothing).
         let mut progress = None;
-        let terrain = globe::terrain::open_terrain(&self.dem, |fraction| {
+        let remote = self.remote_options();
+        let terrain = globe::terrain::open_terrain_with(&self.dem, remote, |fraction| {
             progress
                 .get_or_insert_with(|| {
                     let label = format!("importing {} into the cache", self.dem);
@@ -984,9 +1012,11 @@ fn bench(args: &BenchArgs) -> anyhow::Result<ExitCode> {
     eprintln!("adapter: {adapter}");
     let terrain = args.dem.open()?;
     eprintln!("terrain: {}", terrain.describe());
+    let remote = terrain.dem().and_then(|d| d.pyramid().remote().cloned());
     let mut runs = Vec::new();
     let latencies = args.stream.latencies(LatencyMs { min: 0, max: 0 });
     for &latency in &latencies {
+        let remote_before = remote.as_ref().map(|r| r.stats());
         let options = globe::bench::BenchOptions {
             scene: name.to_owned(),
             camera: args.camera,
@@ -1054,6 +1084,29 @@ fn bench(args: &BenchArgs) -> anyhow::Result<ExitCode> {
             println!("{}", run.to_json());
         } else {
             print_bench(&run);
+        }
+        if let (Some(r), Some(b)) = (&remote, remote_before) {
+            let s = r.stats();
+            let used = s.tile_bytes_used - b.tile_bytes_used;
+            let asked = s.bytes_requested - b.bytes_requested;
+            eprintln!(
+                "  remote {}: {} requests ({} failed), {:.2} MiB requested for {:.2} MiB of {} tiles \
+                 (requested/used {:.3}); {} tiles from the disk cache, {} from memory, {} refused (CRC)",
+                r.url(),
+                s.requests - b.requests,
+                s.request_errors - b.request_errors,
+                asked as f64 / 1048576.0,
+                used as f64 / 1048576.0,
+                s.tiles_fetched - b.tiles_fetched,
+                if used > 0 {
+                    asked as f64 / used as f64
+                } else {
+                    0.0
+                },
+                s.disk_hits - b.disk_hits,
+                s.resident_hits - b.resident_hits,
+                s.rejected_tiles - b.rejected_tiles,
+            );
         }
         runs.push(run);
     }
@@ -1302,7 +1355,7 @@ fn print_soak(run: &globe::soak::SoakRun, f: &globe::soak::SoakFindings) {
     );
     println!(
         "  memory, MiB: cache max {:.1} of {:.1}; GPU tiles max {} of {}; anonymous RSS max {} \
-         of budget {} (baseline {}, slope over the second half {} MiB/min); file-backed RSS max {}",
+         of budget {} (first half's max {}, slope over the second half {} MiB/min); file-backed RSS max {}",
         mib(f.cache_bytes_max),
         mib(f.cache_budget),
         f.gpu_tiles_max,

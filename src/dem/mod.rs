@@ -21,6 +21,7 @@ pub mod mosaic;
 pub mod netcdf;
 pub mod pyramid;
 pub mod raster;
+pub mod remote;
 
 pub use change::FileChange;
 pub use ehdr::{EhdrMosaic, EhdrRaster};
@@ -60,6 +61,9 @@ pub enum DemError {
     },
     #[error("{0}")]
     Other(String),
+    /// A remote pyramid's request failed (names the URL, the byte range and why).
+    #[error("{0}")]
+    Remote(String),
     /// A file shorter than its header says (or than the header itself needs).
     #[error("{path}: truncated: {actual} bytes, expected {expected}; missing {what}")]
     Truncated {

@@ -2,7 +2,8 @@
 //! (DESIGN.md "Data flow").
 //!
 //! ```text
-//! TileSource (mmap, or a fault-injecting wrapper)
+//! TileSource (mmap; a remote object: memory, disk cache or coalesced range requests,
+//!             `remote.rs`; or a fault-injecting wrapper around either)
 //!     │ blocking reads on tokio's blocking pool, CRC-checked, retried with back-off
 //!     ▼
 //! TileStreamer: priority queue (coarse levels first, then finer ones nearest the viewer),
@@ -29,10 +30,13 @@
 //! (replace it by renaming, as `globe-data import` does).
 
 pub mod cache;
+pub mod remote;
 pub mod source;
 pub mod streamer;
 
+pub use crate::dem::remote::{RemoteOptions, RemoteStats, RemoteStore};
 pub use cache::TileCache;
+pub use remote::RemoteTileSource;
 pub use source::{FaultSettings, FaultyTileSource, MmapTileSource, TileData, TileSource};
 pub use streamer::raw_read_rate;
 pub use streamer::{Completion, StreamStats, TileStreamer};

@@ -71,7 +71,27 @@ impl std::fmt::Debug for DemTerrain {
 impl DemTerrain {
     /// Opens a pyramid file on a sphere of radius `radius_m`.
     pub fn open(path: &Path, radius_m: f64) -> Result<Self, DemError> {
-        let pyramid = Pyramid::open(path)?;
+        Ok(Self::from_pyramid(Pyramid::open(path)?, radius_m))
+    }
+
+    /// Opens a pyramid on an HTTP server or an S3 store (`crate::dem::remote`); without a
+    /// disk cache folder in `options`, the cache folder's `remote/` holds it.
+    pub fn open_remote(
+        url: &str,
+        mut options: crate::dem::remote::RemoteOptions,
+        radius_m: f64,
+    ) -> Result<Self, DemError> {
+        if options.disk_cache_dir.is_none() {
+            options.disk_cache_dir = Some(cache_dir().join("remote"));
+        }
+        Ok(Self::from_pyramid(
+            Pyramid::open_remote(url, options)?,
+            radius_m,
+        ))
+    }
+
+    fn from_pyramid(pyramid: Pyramid, radius_m: f64) -> Self {
+        let path = pyramid.path().to_path_buf();
         let info = pyramid.info();
         // Heights outside a regional file's extents are sea level, so 0 is in the range.
         let range_m = (info.min_m.min(0.0), info.max_m.max(0.0));
@@ -80,14 +100,14 @@ impl DemTerrain {
             .map(|level| pole_caps(&pyramid, level))
             .collect();
         let ends = pole_ends(&pyramid, poles.first().copied().unwrap_or([None, None]));
-        Ok(Self {
+        Self {
             pyramid: Arc::new(pyramid),
             radius_m,
             range_m,
             description,
             poles: Arc::new(poles),
             ends,
-        })
+        }
     }
 
     /// How the terrain function (the finest level) ends at the North and the South Pole.

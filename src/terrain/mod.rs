@@ -257,7 +257,22 @@ pub fn open_terrain(
     spec: &str,
     progress: impl FnMut(f64),
 ) -> Result<Terrain, crate::dem::DemError> {
+    open_terrain_with(spec, crate::dem::remote::RemoteOptions::default(), progress)
+}
+
+/// As [`open_terrain`]; `remote` says how a pyramid named by URL (`http://`, `https://`,
+/// `s3://`) is read.
+pub fn open_terrain_with(
+    spec: &str,
+    remote: crate::dem::remote::RemoteOptions,
+    progress: impl FnMut(f64),
+) -> Result<Terrain, crate::dem::DemError> {
     let radius_m = crate::geo::EARTH_RADIUS_M;
+    if crate::dem::remote::is_remote_url(spec) {
+        return Ok(Terrain::dem_terrain(DemTerrain::open_remote(
+            spec, remote, radius_m,
+        )?));
+    }
     match spec {
         "embedded" => Terrain::embedded_earth(),
         "analytic" => Ok(Terrain::analytic_earth()),

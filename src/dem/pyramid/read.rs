@@ -3,12 +3,14 @@
 use std::borrow::Cow;
 use std::fmt;
 use std::path::{Path, PathBuf};
-use std::sync::OnceLock;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, OnceLock};
 
 use super::format::{Encoding, Extents, Header, LevelGeom, TileEntry};
 use crate::dem::change::classify;
 use crate::dem::mapped::{MappedFile, OpenFile};
 use crate::dem::raster::GeoGrid;
+use crate::dem::remote::{RemoteOptions, RemoteStore};
 use crate::dem::{DemError, FileChange};
 
 /// Reads the stored code of (level, plane, row, col); `None` when the tile holding it is not
@@ -171,6 +173,17 @@ pub struct Pyramid {
     /// use by [`Pyramid::min_max_in`]: a cap reaching a pole spans every column, and reading
     /// them all (4320 per row at 5′) on every query made the reference ray caster crawl there.
     row_extremes: Vec<Vec<OnceLock<(i16, i16)>>>,
+    /// A pyramid on a server: `map` then holds the header only, tiles come from here.
+    remote: Option<RemoteTiles>,
+}
+
+/// The tiles of a remote pyramid that the synchronous readers hold: the coarse levels fetched
+/// at open and any tile a query touched (fetched once, blocking, and kept).
+struct RemoteTiles {
+    store: Arc<RemoteStore>,
+    resident: Vec<OnceLock<Box<[u8]>>>,
+    /// A failed blocking read is reported on stderr once per tile.
+    reported: Vec<AtomicBool>,
 }
 
 impl fmt::Debug for Pyramid {
@@ -212,6 +225,232 @@ impl Pyramid {
         Self::validated(path, map)
     }
 
+    /// Opens a pyramid on an HTTP server or an S3 store (`http://`, `https://`,
+    /// `s3://bucket/key`; see `crate::dem::remote`): the header, level table and tile index
+    /// are fetched and validated exactly as [`Pyramid::open`] validates a file's (header CRC
+    /// included, the object's size standing for the file's length), then the coarsest levels
+    /// that fit in `options.prefetch_bytes` are fetched in one request, CRC-checked and kept.
+    pub fn open_remote(url: &str, options: RemoteOptions) -> Result<Pyramid, DemError> {
+        let store = Arc::new(RemoteStore::connect(url, options)?);
+        let path = PathBuf::from(url);
+        let size = store.size();
+        if size == 0 {
+            return Err(Self::empty(path));
+        }
+        // The fixed header says how long the whole header (with the tile index) is.
+        let first = store.fetch_blocking(0..size.min(64 << 10))?;
+        let header_len = if first.len() >= 16 {
+            u32::from_le_bytes([first[12], first[13], first[14], first[15]]) as u64
+        } else {
+            0
+        };
+        let head = if header_len > first.len() as u64 && header_len <= size {
+            store.fetch_blocking(0..header_len)?
+        } else {
+            first
+        };
+        // Validated exactly as a file's, the object's size standing for the file's length.
+        let map = MappedFile::from_bytes(&path, head);
+        let mut p = Self::validated_len(path, map, size)?;
+        // The header is valid, so `header_len` is: its last 4 bytes are the header's CRC, which
+        // keys the disk cache (a changed file gets a fresh one).
+        let at = header_len as usize - 4;
+        let m = &p.map;
+        store.open_disk_cache(u32::from_le_bytes([m[at], m[at + 1], m[at + 2], m[at + 3]]));
+        let n = p.header.index.len();
+        p.remote = Some(RemoteTiles {
+            store,
+            resident: (0..n).map(|_| OnceLock::new()).collect(),
+            reported: (0..n).map(|_| AtomicBool::new(false)).collect(),
+        });
+        p.prefetch_coarse()?;
+        Ok(p)
+    }
+
+    /// The coarsest levels whose tiles fit in the prefetch budget (the tiles lie in index
+    /// order, so those levels are the file's last bytes: one request), and the polar tile rows
+    /// of a global pyramid, fetched together and kept.
+    fn prefetch_coarse(&self) -> Result<(), DemError> {
+        let Some(r) = &self.remote else {
+            return Ok(());
+        };
+        let budget = r.store.options().prefetch_bytes;
+        let mut first_index = self.header.index.len();
+        let mut bytes = 0u64;
+        for level in (0..self.header.levels.len()).rev() {
+            let start = self.first_tile[level];
+            let level_bytes: u64 = self.header.index[start..first_index]
+                .iter()
+                .map(|e| e.len as u64)
+                .sum();
+            if bytes + level_bytes > budget {
+                break;
+            }
+            bytes += level_bytes;
+            first_index = start;
+        }
+        let mut wanted: Vec<usize> = (first_index..self.header.index.len()).collect();
+        // The rows at the poles of every level: `DemTerrain` reads them at open (the poles'
+        // heights), so they go out together here rather than one blocking request each.
+        if self.header.wraps {
+            for (level, l) in self.header.levels.iter().enumerate() {
+                let first = self.first_tile[level];
+                let last_row = first + (l.tiles_y - 1) * l.tiles_x;
+                wanted.extend(first..first + l.tiles_x);
+                wanted.extend(last_row..last_row + l.tiles_x);
+            }
+        }
+        wanted.sort_unstable();
+        wanted.dedup();
+        wanted.retain(|&i| r.resident[i].get().is_none());
+        // What the disk cache holds (and checks) needs no request.
+        wanted.retain(|&index| {
+            let (level, tx, ty) = self.tile_of_index(index);
+            let e = self.header.index[index];
+            match r
+                .store
+                .disk_get(index, e.crc32, &|b| self.check_payload(level, tx, ty, b))
+            {
+                Some(b) => {
+                    let _ = r.resident[index].set(b.into());
+                    false
+                }
+                None => true,
+            }
+        });
+        let ranges: Vec<_> = wanted
+            .iter()
+            .map(|&i| {
+                let e = self.header.index[i];
+                e.offset..e.offset + e.len as u64
+            })
+            .collect();
+        let got = r.store.fetch_many_blocking(&ranges)?;
+        for (&index, payload) in wanted.iter().zip(got) {
+            let (level, tx, ty) = self.tile_of_index(index);
+            self.check_payload(level, tx, ty, &payload)?;
+            r.store.disk_put(index, &payload);
+            let _ = r.resident[index].set(payload.into());
+        }
+        Ok(())
+    }
+
+    /// (level, tx, ty) of a tile-index position.
+    fn tile_of_index(&self, index: usize) -> (usize, usize, usize) {
+        let level = self.first_tile.partition_point(|&f| f <= index) - 1;
+        let i = index - self.first_tile[level];
+        let tiles_x = self.header.levels[level].tiles_x;
+        (level, i % tiles_x, i / tiles_x)
+    }
+
+    /// The store of a remote pyramid; None for a file.
+    pub fn remote(&self) -> Option<&Arc<RemoteStore>> {
+        self.remote.as_ref().map(|r| &r.store)
+    }
+
+    /// A remote pyramid's tile payload for the streamer: from memory when resident, else
+    /// through the store (disk cache or a batched range request), CRC and codes checked.
+    /// Not kept here (the streamer's cache holds it).
+    pub fn remote_tile_payload(
+        &self,
+        level: usize,
+        tx: usize,
+        ty: usize,
+    ) -> Result<Vec<u8>, DemError> {
+        let index = self.index_of(level, tx, ty)?;
+        let r = self.remote.as_ref().ok_or_else(|| {
+            DemError::Other(format!("{}: not a remote pyramid", self.path.display()))
+        })?;
+        if let Some(b) = r.resident[index].get() {
+            r.store.count_resident_hit();
+            return Ok(b.to_vec());
+        }
+        let e = self.header.index[index];
+        r.store.tile_payload(
+            index,
+            e.offset..e.offset + e.len as u64,
+            e.crc32,
+            true,
+            &|b| self.check_payload(level, tx, ty, b),
+        )
+    }
+
+    /// A remote tile for the synchronous readers: resident, or fetched now (blocking, with
+    /// retries) and kept. None when every attempt failed (reported once on stderr).
+    fn remote_resident<'a>(&'a self, r: &'a RemoteTiles, index: usize) -> Option<&'a [u8]> {
+        if let Some(b) = r.resident[index].get() {
+            return Some(b);
+        }
+        let (level, tx, ty) = self.tile_of_index(index);
+        let e = self.header.index[index];
+        let attempts = r.store.options().sync_attempts.max(1);
+        let mut backoff = std::time::Duration::from_millis(20);
+        let mut last = None;
+        for attempt in 0..attempts {
+            if attempt > 0 {
+                std::thread::sleep(backoff);
+                backoff *= 2;
+            }
+            match r.store.tile_payload(
+                index,
+                e.offset..e.offset + e.len as u64,
+                e.crc32,
+                false,
+                &|b| self.check_payload(level, tx, ty, b),
+            ) {
+                Ok(b) => {
+                    let _ = r.resident[index].set(b.into());
+                    return r.resident[index].get().map(|b| &b[..]);
+                }
+                Err(err) => last = Some(err),
+            }
+        }
+        if !r.reported[index].swap(true, Ordering::Relaxed)
+            && let Some(err) = last
+        {
+            eprintln!("globe: {err} (after {attempts} attempts; the query reads no data there)");
+        }
+        None
+    }
+
+    /// Checks a tile payload against its index entry's CRC and the format's rules.
+    fn check_payload(
+        &self,
+        level: usize,
+        tx: usize,
+        ty: usize,
+        bytes: &[u8],
+    ) -> Result<(), DemError> {
+        let e = self.tile_entry(level, tx, ty)?;
+        if bytes.len() != e.len as usize {
+            return Err(DemError::Truncated {
+                path: self.path.clone(),
+                actual: bytes.len() as u64,
+                expected: e.len as u64,
+                what: format!("part of level {level} tile ({tx}, {ty})"),
+            });
+        }
+        let crc = crc32fast::hash(bytes);
+        if crc != e.crc32 {
+            return Err(self.checksum_error(level, tx, ty, e.crc32, crc));
+        }
+        self.check_codes(level, tx, ty, bytes)?;
+        Ok(())
+    }
+
+    /// A view of a tile payload read elsewhere (a remote tile), checked as
+    /// [`Pyramid::tile_verified`] checks the map's.
+    pub fn tile_of_payload<'a>(
+        &self,
+        level: usize,
+        tx: usize,
+        ty: usize,
+        bytes: &'a [u8],
+    ) -> Result<TileView<'a>, DemError> {
+        self.check_payload(level, tx, ty, bytes)?;
+        Ok(self.view(level, tx, ty, bytes))
+    }
+
     fn empty(path: PathBuf) -> DemError {
         DemError::Truncated {
             path,
@@ -222,7 +461,14 @@ impl Pyramid {
     }
 
     fn validated(path: PathBuf, map: MappedFile) -> Result<Pyramid, DemError> {
-        let header = Header::decode(&map, map.len() as u64, &path)?;
+        let len = map.len() as u64;
+        Self::validated_len(path, map, len)
+    }
+
+    /// As `validated`, for `map` holding the first bytes (at least the header) of an object
+    /// `actual_len` bytes long.
+    fn validated_len(path: PathBuf, map: MappedFile, actual_len: u64) -> Result<Pyramid, DemError> {
+        let header = Header::decode(&map, actual_len, &path)?;
         let lay = super::format::layout(&header.levels, header.tile_size, header.description.len());
         let row_extremes = header
             .levels
@@ -235,6 +481,7 @@ impl Pyramid {
             first_tile: lay.first_tile,
             header,
             row_extremes,
+            remote: None,
         })
     }
 
@@ -311,6 +558,10 @@ impl Pyramid {
     /// extended in place by another process). Cheap (one `fstat`); the streamer can call it
     /// before a batch of reads to narrow the SIGBUS window described in the module docs.
     pub fn check_length(&self) -> Result<(), DemError> {
+        if self.remote.is_some() {
+            // The object's size was checked at open; a changed object fails its tiles' CRCs.
+            return Ok(());
+        }
         let len = self.map.current_len()?;
         let expected = self.header.file_len;
         if len < expected {
@@ -342,6 +593,9 @@ impl Pyramid {
     /// ([`Pyramid::check_length`], for `verify`, still calls it one).
     pub fn check_tile_in_file(&self, level: usize, tx: usize, ty: usize) -> Result<(), DemError> {
         let e = self.tile_entry(level, tx, ty)?;
+        if self.remote.is_some() {
+            return Ok(());
+        }
         let end = e.offset + e.len as u64;
         let len = self.map.current_len()?;
         if len < end {
@@ -407,18 +661,32 @@ impl Pyramid {
     }
 
     /// The raw payload of a tile (three planes of little-endian `i16`), unchecked.
+    /// For a remote pyramid: fetched (blocking) and kept, CRC-checked.
     pub fn tile_bytes(&self, level: usize, tx: usize, ty: usize) -> Result<&[u8], DemError> {
         let e = self.tile_entry(level, tx, ty)?;
         crate::dem::frame_reads::note_read();
+        if let Some(r) = &self.remote {
+            let index = self.index_of(level, tx, ty)?;
+            return self.remote_resident(r, index).ok_or_else(|| {
+                DemError::Remote(format!(
+                    "{}: level {level} tile ({tx}, {ty}) could not be fetched",
+                    self.path.display()
+                ))
+            });
+        }
         Ok(&self.map[e.offset as usize..e.offset as usize + e.len as usize])
     }
 
     /// A view of a tile, without checking its CRC.
     pub fn tile(&self, level: usize, tx: usize, ty: usize) -> Result<TileView<'_>, DemError> {
         let bytes = self.tile_bytes(level, tx, ty)?;
+        Ok(self.view(level, tx, ty, bytes))
+    }
+
+    fn view<'a>(&self, level: usize, tx: usize, ty: usize, bytes: &'a [u8]) -> TileView<'a> {
         let t = self.header.tile_size;
         let l = &self.header.levels[level];
-        let plane = |p: usize| -> Cow<'_, [i16]> {
+        let plane = |p: usize| -> Cow<'a, [i16]> {
             let b = &bytes[p * 2 * t * t..(p + 1) * 2 * t * t];
             #[cfg(target_endian = "little")]
             if let Ok(s) = bytemuck::try_cast_slice::<u8, i16>(b) {
@@ -430,7 +698,7 @@ impl Pyramid {
                     .collect(),
             )
         };
-        Ok(TileView {
+        TileView {
             level,
             tx,
             ty,
@@ -443,7 +711,7 @@ impl Pyramid {
             avg: plane(0),
             min: plane(1),
             max: plane(2),
-        })
+        }
     }
 
     /// A view of a tile whose payload matches its CRC (the streamer's read path).
@@ -574,27 +842,36 @@ impl Pyramid {
     }
 
     /// The stored code of plane `p` at pixel (row, col) of a level (in range: unchecked).
-    fn code(&self, level: usize, p: Plane, row: usize, col: usize) -> i16 {
+    /// None only for a remote tile that could not be fetched.
+    fn code(&self, level: usize, p: Plane, row: usize, col: usize) -> Option<i16> {
         let t = self.header.tile_size;
         let l = &self.header.levels[level];
         let i = self.first_tile[level] + (row / t) * l.tiles_x + col / t;
-        let at = self.header.index[i].offset as usize
-            + 2 * (p as usize * t * t + (row % t) * t + col % t);
+        let within = 2 * (p as usize * t * t + (row % t) * t + col % t);
         crate::dem::frame_reads::note_read();
-        i16::from_le_bytes([self.map[at], self.map[at + 1]])
+        if let Some(r) = &self.remote {
+            let b = self.remote_resident(r, i)?;
+            return Some(i16::from_le_bytes([b[within], b[within + 1]]));
+        }
+        let at = self.header.index[i].offset as usize + within;
+        Some(i16::from_le_bytes([self.map[at], self.map[at + 1]]))
     }
 
     /// The stored code of plane `p` at pixel (row, col) of a level, `None` out of range.
     pub fn pixel_code(&self, level: usize, p: Plane, row: usize, col: usize) -> Option<i16> {
         let l = self.header.levels.get(level)?;
-        (row < l.rows && col < l.cols).then(|| self.code(level, p, row, col))
+        (row < l.rows && col < l.cols)
+            .then(|| self.code(level, p, row, col))
+            .flatten()
     }
 
     /// Height in metres of plane `p` at pixel (row, col) of a level.
     pub fn pixel_m(&self, level: usize, p: Plane, row: usize, col: usize) -> Option<f64> {
         let l = self.header.levels.get(level)?;
         (row < l.rows && col < l.cols)
-            .then(|| self.header.encoding.decode(self.code(level, p, row, col)))
+            .then(|| self.code(level, p, row, col))
+            .flatten()
+            .map(|c| self.header.encoding.decode(c))
     }
 
     /// True when (lat, lon) lies within the data's extents (always, in longitude, for a
@@ -657,7 +934,7 @@ impl Pyramid {
 
     /// As [`Pyramid::sample`], of any plane.
     pub fn sample_plane(&self, lat_deg: f64, lon_deg: f64, level: usize, p: Plane) -> Option<f64> {
-        let code = |l, p, r, c| Some(self.code(l, p, r, c));
+        let code = |l, p, r, c| self.code(l, p, r, c);
         self.sample_plane_with(lat_deg, lon_deg, level, p, &code)
             .unwrap_or(None)
     }
@@ -725,7 +1002,7 @@ impl Pyramid {
     /// Whole rows (a region reaching a pole, or wider than the circle) are read once per row
     /// and remembered.
     pub fn min_max_in(&self, region: Region, level: usize) -> Option<HeightBounds> {
-        let code = |l, p, r, c| Some(self.code(l, p, r, c));
+        let code = |l, p, r, c| self.code(l, p, r, c);
         self.min_max_in_impl(region, level, &code, true)
             .unwrap_or(None)
     }
@@ -742,16 +1019,18 @@ impl Pyramid {
     }
 
     /// The lowest min and highest max code of a whole row of a level (read once).
-    fn row_extremes(&self, level: usize, row: usize) -> (i16, i16) {
-        *self.row_extremes[level][row].get_or_init(|| {
-            let cols = self.header.levels[level].cols;
-            (0..cols).fold((i16::MAX, i16::MIN), |(lo, hi), c| {
-                (
-                    lo.min(self.code(level, Plane::Min, row, c)),
-                    hi.max(self.code(level, Plane::Max, row, c)),
-                )
-            })
-        })
+    /// None when a remote tile of the row could not be fetched (not remembered).
+    fn row_extremes(&self, level: usize, row: usize) -> Option<(i16, i16)> {
+        if let Some(v) = self.row_extremes[level][row].get() {
+            return Some(*v);
+        }
+        let cols = self.header.levels[level].cols;
+        let (mut lo, mut hi) = (i16::MAX, i16::MIN);
+        for c in 0..cols {
+            lo = lo.min(self.code(level, Plane::Min, row, c)?);
+            hi = hi.max(self.code(level, Plane::Max, row, c)?);
+        }
+        Some(*self.row_extremes[level][row].get_or_init(|| (lo, hi)))
     }
 
     /// [`Pyramid::min_max_in_with`]; `whole_rows` reads a row spanning every column through
@@ -860,7 +1139,7 @@ impl Pyramid {
         let every_column = col_ranges == [(0, n - 1)];
         for row in row_a..=row_b {
             if whole_rows && every_column {
-                let (row_lo, row_hi) = self.row_extremes(level, row);
+                let (row_lo, row_hi) = self.row_extremes(level, row).ok_or(NotResident)?;
                 (lo, hi) = (lo.min(row_lo), hi.max(row_hi));
                 pixels += l.cols;
                 continue;
