@@ -44,7 +44,10 @@ fn a_short_soak_holds_its_budgets_and_settles_to_the_fault_free_image() {
         lod: Default::default(),
         frame_interval: None,
         settle_timeout: Duration::from_secs(120),
-        rss_slack_bytes: soak::DEFAULT_RSS_SLACK_BYTES,
+        // Fourteen seconds are mostly warm-up (each new kind of view compiles pipelines in
+        // both renderers): memory is held to its budget by the ten-minute soak (README), here
+        // only against gross growth.
+        rss_slack_bytes: 512 << 20,
         mismatch_dir: None,
     };
     let run = soak::run(ctx, &terrain, &options, |_| {}).unwrap();
@@ -53,15 +56,10 @@ fn a_short_soak_holds_its_budgets_and_settles_to_the_fault_free_image() {
     assert_eq!(f.frames_reading_the_file, 0);
     assert!(f.settle_points >= 5, "{} settle points", f.settle_points);
     assert_eq!(f.settle_failures, 0);
-    // Exact equality is the goal and usually holds; a renderer's level textures still carry
-    // f32 rounding from the dispatch that filled them and the φ-span hysteresis of its past
-    // grids (README "Soak"), so a settle point may differ by a few low bits. What streaming
-    // must never do, a lost or wrong tile, shows as far more than this.
-    assert!(
-        f.max_visibly_differing_share <= 0.005,
-        "{:.3} % of an image differs visibly",
-        100.0 * f.max_visibly_differing_share
-    );
+    // Every settle point equals the fault-free render, to the bit (README "Soak": what made
+    // a renderer's past show in its settled frame).
+    assert!(f.passed(), "{:?}", f.failures());
+    assert_eq!(f.settle_points_differing, 0);
     for place in [Place::Ground, Place::Pole, Place::Antimeridian] {
         assert!(
             run.settles.iter().any(|p| p.place == place),

@@ -85,7 +85,12 @@ impl GpuContext {
         let desc = wgpu::DeviceDescriptor {
             label: Some("globe device"),
             required_features: adapter.features() & wanted,
-            required_limits: wgpu::Limits::default().using_resolution(adapter.limits()),
+            // The adapter's texture sizes and array layers: the GPU tile cache is one array
+            // (`--gpu-tiles`, 512 by default; wgpu's default limit is 256 layers).
+            required_limits: wgpu::Limits {
+                max_texture_array_layers: adapter.limits().max_texture_array_layers,
+                ..wgpu::Limits::default().using_resolution(adapter.limits())
+            },
             experimental_features: wgpu::ExperimentalFeatures::disabled(),
             memory_hints: wgpu::MemoryHints::Performance,
             trace: wgpu::Trace::Off,

@@ -95,7 +95,7 @@ impl Default for StreamSettings {
     fn default() -> Self {
         Self {
             cache_bytes: DEFAULT_CACHE_BYTES,
-            gpu_tiles: 256,
+            gpu_tiles: 512,
             uploads_per_frame: 32,
             max_in_flight: 16,
             retries: 6,
