@@ -1354,10 +1354,13 @@ fn print_soak(run: &globe::soak::SoakRun, f: &globe::soak::SoakFindings) {
         f.tiles_loaded, f.tiles_failed, f.retries
     );
     println!(
-        "  memory, MiB: cache max {:.1} of {:.1}; GPU tiles max {} of {}; anonymous RSS max {} \
+        "  memory, MiB: cache max {:.1} of {:.1} (the frame's own tiles, kept beyond it: at most \
+         {:.1}; frames over both: {}); GPU tiles max {} of {}; anonymous RSS max {} \
          of budget {} (first half's max {}, slope over the second half {} MiB/min); file-backed RSS max {}",
         mib(f.cache_bytes_max),
         mib(f.cache_budget),
+        mib(f.cache_kept_bytes_max),
+        f.frames_over_cache_budget,
         f.gpu_tiles_max,
         f.gpu_capacity,
         opt_mib(f.rss_anon_max),

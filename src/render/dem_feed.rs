@@ -47,6 +47,9 @@ pub struct FeedFrame {
     pub upload_backlog: u32,
     pub cache_bytes: u64,
     pub cache_budget: u64,
+    /// Bytes of the cached tiles this frame holds whatever the budget (the camera's ground,
+    /// tiles on their way to the GPU): `cache_bytes` ≤ max(`cache_budget`, this).
+    pub cache_kept_bytes: u64,
     pub cache_tiles: usize,
     pub cache_hit_rate: Option<f64>,
     pub gpu_tiles: usize,
@@ -492,6 +495,7 @@ impl DemFeed {
             upload_backlog: (to_upload.len() - uploads as usize) as u32,
             cache_bytes: self.cache.bytes(),
             cache_budget: self.cache.budget(),
+            cache_kept_bytes: self.cache.bytes_kept(|k| self.keep.contains(k)),
             cache_tiles: self.cache.len(),
             cache_hit_rate: self.cache.hit_rate(),
             gpu_tiles: self.gpu.resident_count(),

@@ -93,6 +93,15 @@ impl TileCache {
         self.bytes
     }
 
+    /// Bytes of the tiles `keep` names (what a trim may keep beyond the budget).
+    pub fn bytes_kept(&self, keep: impl Fn(&TileKey) -> bool) -> u64 {
+        self.tiles
+            .iter()
+            .filter(|(k, _)| keep(k))
+            .map(|(_, t)| t.bytes())
+            .sum()
+    }
+
     pub fn budget(&self) -> u64 {
         self.budget
     }
