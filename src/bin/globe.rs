@@ -632,7 +632,7 @@ struct BenchArgs {
     no_error: bool,
     #[command(flatten)]
     measure_limit: MeasureArgs,
-    /// `--scene soak`: seconds of flight on its clock (settle points not counted).
+    /// `--scene soak`: seconds of flight on its clock (settle points not counted; default 600).
     #[arg(long, value_name = "S")]
     seconds: Option<f64>,
     /// `--scene soak`: the seed of its random path and of the faults it injects.
