@@ -244,8 +244,19 @@ fn test_pixels<H: HeightField>(caster: &RayCaster<'_, H>, w: u32, h: u32) -> Vec
 /// (`min_step_px`·t/λ), and then at most (1 + L)·`min_step_px`/2 px deep; after a sliver the
 /// next crossing must agree.
 fn check_against_brute_force<H: HeightField>(what: &str, field: &H, camera: &Camera) {
+    check_against_brute_force_of(what, field, field, camera);
+}
+
+/// [`check_against_brute_force`] with the caster on `cast` and the brute force on `field`
+/// (the same terrain function, as seen from the camera).
+fn check_against_brute_force_of<C: HeightField, H: HeightField>(
+    what: &str,
+    cast: &C,
+    field: &H,
+    camera: &Camera,
+) {
     let (w, h) = (320, 180);
-    let caster = RayCaster::new(field, camera, w, h);
+    let caster = RayCaster::new(cast, camera, w, h);
     let focal = pixels_per_radian(h, camera.fov_y_rad());
     let options = RayCastOptions::default();
     let camera_from_view = camera.view_from_camera().transpose();
@@ -379,6 +390,95 @@ fn ray_caster_matches_brute_force_stiff_rays() {
             check_against_brute_force(&format!("{what} 1 mm up, pitch {pitch}"), &terrain, &camera);
         }
     }
+}
+
+/// A terrain with detail as the reference sees it from one viewer ([`HeightField::height_seen_m`]
+/// as its plain height), through the default trait methods only: the brute force's field, and
+/// with them the march without split steps.
+struct SeenFrom<'a> {
+    terrain: &'a Terrain,
+    viewer_u: DVec3,
+}
+
+impl HeightField for SeenFrom<'_> {
+    fn radius_m(&self) -> f64 {
+        self.terrain.radius_m()
+    }
+    fn height_m(&self, u: DVec3) -> f64 {
+        self.terrain.height_seen_m(u, self.viewer_u)
+    }
+    fn height_range_m(&self) -> (f64, f64) {
+        HeightField::height_range_m(self.terrain)
+    }
+    fn local_bounds(&self, u: DVec3, angle_rad: f64) -> globe::measure::LocalBounds {
+        self.terrain.local_bounds_seen(u, angle_rad, self.viewer_u)
+    }
+    fn finest_bound_angle_rad(&self) -> f64 {
+        self.terrain.finest_bound_angle_rad()
+    }
+}
+
+fn earth_with_detail() -> Terrain {
+    earth().with_detail(Some(globe::procedural::DetailParams::default()))
+}
+
+/// The march's split steps (coarse octaves evaluated, fine ones bounded) on rays that graze
+/// the detail: the `ground` scene (2 m up) and 1 mm above Lake Garda's shore, horizon rays
+/// included, against the brute-force march over the same terrain as seen from the camera.
+#[test]
+fn ray_caster_matches_brute_force_with_detail() {
+    let terrain = earth_with_detail();
+    let ground = scene_camera(&terrain, "ground");
+    let low = Camera {
+        altitude_m: terrain.height_at_lat_lon_m(ground.lat_deg, ground.lon_deg) + 1e-3,
+        ..ground
+    };
+    for (what, camera) in [("detail ground", ground), ("detail 1 mm up", low)] {
+        let seen = SeenFrom {
+            terrain: &terrain,
+            viewer_u: camera.view_frame().world_from_view * DVec3::Z,
+        };
+        check_against_brute_force_of(what, &terrain, &seen, &camera);
+    }
+}
+
+/// What the split steps buy: the `ground` scene over the detail (2 m up, its rays grazing the
+/// relief to the horizon) in march steps per pixel (not wall time), with and without them.
+/// Every pixel agrees (sky against terrain, and hits within twice the refinement tolerance).
+#[test]
+fn split_steps_cut_the_march_over_detail() {
+    let terrain = earth_with_detail();
+    let camera = scene_camera(&terrain, "ground");
+    let (w, h) = (96, 54);
+    let seen = SeenFrom {
+        terrain: &terrain,
+        viewer_u: camera.view_frame().world_from_view * DVec3::Z,
+    };
+    let split = RayCaster::new(&terrain, &camera, w, h).cast(&PixelSet::All);
+    let whole = RayCaster::new(&seen, &camera, w, h).cast(&PixelSet::All);
+    let focal = pixels_per_radian(h, camera.fov_y_rad());
+    let options = RayCastOptions::default();
+    for y in 0..h {
+        for x in 0..w {
+            match (split.pixel(x, y), whole.pixel(x, y)) {
+                (ReferencePixel::Sky, ReferencePixel::Sky) => {}
+                (
+                    ReferencePixel::Terrain { distance_m: a, .. },
+                    ReferencePixel::Terrain { distance_m: b, .. },
+                ) => {
+                    let tol = 2.0 * refine_tolerance_m(&options, a.max(b), focal);
+                    assert!((a - b).abs() <= tol, "({x},{y}): {a} m vs {b} m");
+                }
+                (a, b) => panic!("({x},{y}): {a:?} with split steps, {b:?} without"),
+            }
+        }
+    }
+    let per_pixel =
+        |image: &globe::measure::ReferenceImage| image.steps as f64 / image.cast_count() as f64;
+    let (with, without) = (per_pixel(&split), per_pixel(&whole));
+    eprintln!("ground with detail, march steps per pixel: split {with:.1}, whole {without:.1}");
+    assert!(split.terrain_count() > 0);
+    assert!(with < 0.8 * without, "{with:.1} vs {without:.1}");
 }
 
 /// A subset cast gives the same pixels as casting them one by one, and nothing else.

@@ -24,6 +24,77 @@ struct Tile {
     col0: usize,
 }
 
+impl MosaicTile for Tile {
+    fn rows(&self) -> std::ops::Range<usize> {
+        self.row0..self.row0 + self.grid.rows
+    }
+
+    fn cols(&self) -> std::ops::Range<usize> {
+        self.col0..self.col0 + self.grid.cols
+    }
+
+    fn may_overlap(&self) -> bool {
+        true
+    }
+
+    fn read_tile_row(&self, row: usize, out: &mut [f32]) -> Result<(), DemError> {
+        self.source.read_row(row, out)
+    }
+}
+
+/// One tile of a mosaic as [`read_mosaic_row`] reads it.
+pub(crate) trait MosaicTile {
+    /// The mosaic rows and columns the tile covers.
+    fn rows(&self) -> std::ops::Range<usize>;
+    fn cols(&self) -> std::ops::Range<usize>;
+    /// Whether another tile may cover some of its pixels (false: its row is read straight
+    /// into the mosaic's).
+    fn may_overlap(&self) -> bool;
+    /// The tile's own row `row` into `out` (its width).
+    fn read_tile_row(&self, row: usize, out: &mut [f32]) -> Result<(), DemError>;
+}
+
+/// A mosaic's row: NaN, then the row of every tile that covers it, in order; a tile that may
+/// overlap another only fills pixels still NaN, so the first value wins and no data never
+/// hides a value.
+pub(crate) fn read_mosaic_row<T: MosaicTile>(
+    description: &str,
+    grid: &GeoGrid,
+    tiles: &[T],
+    row: usize,
+    out: &mut [f32],
+) -> Result<(), DemError> {
+    if row >= grid.rows || out.len() != grid.cols {
+        return Err(DemError::Other(format!(
+            "{description}: read_row({row}) with a buffer of {} values; expected row < {} and {} values",
+            out.len(),
+            grid.rows,
+            grid.cols
+        )));
+    }
+    out.fill(f32::NAN);
+    let mut scratch: Vec<f32> = Vec::new();
+    for t in tiles {
+        let rows = t.rows();
+        if !rows.contains(&row) {
+            continue;
+        }
+        let dst = &mut out[t.cols()];
+        if t.may_overlap() {
+            scratch.resize(dst.len(), 0.0);
+            t.read_tile_row(row - rows.start, &mut scratch)?;
+            for (o, &v) in dst.iter_mut().zip(&scratch) {
+                if o.is_nan() {
+                    *o = v;
+                }
+            }
+        } else {
+            t.read_tile_row(row - rows.start, dst)?;
+        }
+    }
+    Ok(())
+}
+
 /// Tiles of any [`RasterSource`] sharing one lattice, read as one raster.
 pub struct RasterMosaic {
     description: String,
@@ -225,30 +296,7 @@ impl RasterSource for RasterMosaic {
     }
 
     fn read_row(&self, row: usize, out: &mut [f32]) -> Result<(), DemError> {
-        if row >= self.grid.rows || out.len() != self.grid.cols {
-            return Err(DemError::Other(format!(
-                "{}: read_row({row}) with a buffer of {} values; expected row < {} and {} values",
-                self.description,
-                out.len(),
-                self.grid.rows,
-                self.grid.cols
-            )));
-        }
-        out.fill(f32::NAN);
-        let mut scratch: Vec<f32> = Vec::new();
-        for t in &self.tiles {
-            if !(t.row0..t.row0 + t.grid.rows).contains(&row) {
-                continue;
-            }
-            scratch.resize(t.grid.cols, 0.0);
-            t.source.read_row(row - t.row0, &mut scratch)?;
-            for (o, &v) in out[t.col0..t.col0 + t.grid.cols].iter_mut().zip(&scratch) {
-                if o.is_nan() {
-                    *o = v;
-                }
-            }
-        }
-        Ok(())
+        read_mosaic_row(&self.description, &self.grid, &self.tiles, row, out)
     }
 
     fn describe(&self) -> String {

@@ -29,7 +29,7 @@ pub use metric::{
 };
 pub use reference::{
     ConstantHeight, HeightField, LocalBounds, PROGRESS_INTERVAL, PixelSet, RayCastOptions,
-    RayCaster, RayHit, ReferenceImage, ReferencePixel,
+    RayCaster, RayHit, ReferenceImage, ReferencePixel, SPLITS, ScaleSplit,
 };
 
 /// Errors of the measurements.

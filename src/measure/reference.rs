@@ -23,6 +23,13 @@
 //!    clearance falls by at most max(0, −d·u) + L·R/r_min per metre of ray (u: the vertical
 //!    where the step starts; along a line d·u only grows. r_min: the shell's floor), so a step
 //!    of f over that rate that stays in the cap cannot cross the terrain.
+//!    **Split steps** (proven safe) for a terrain made of octaves (procedural detail): split
+//!    after octave k into the coarse part c_k (base and the first k octaves, evaluated) and the
+//!    fine rest, at most A_k anywhere in the cap. The surface lies below c_k + A_k, whose slope
+//!    is the coarse part's L_k, so a step of (r − R − c_k − A_k) over max(0, −d·u) + L_k·R/r_min
+//!    is safe. The march takes the longest over every k (the whole terrain is k = n). With the
+//!    default Hurst exponent (0.85) every octave adds about the same slope bound, so leaving
+//!    out those finer than the ray's clearance roughly halves it for a ray a metre up.
 //! 4. **Minimum step** (not proven): when the proven step is shorter than
 //!    s_min = `min_step_px`·t/λ_ray (λ_ray: pixels per radian along that ray, the largest
 //!    value across the pixel), the ray advances by s_min and checks the sign of f there.
@@ -58,6 +65,7 @@ use super::MeasureError;
 use crate::dem::pyramid::Region;
 use crate::geo::camera::{Camera, pixel_ray_view};
 use crate::geo::sphere;
+use crate::procedural::{Detail, MAX_OCTAVES};
 use crate::terrain::dem::PoleEnd;
 use crate::terrain::{AnalyticPlanet, Base, DemTerrain, Terrain};
 
@@ -86,6 +94,23 @@ pub struct LocalBounds {
     pub slope_max: f64,
 }
 
+/// Split points of a terrain with detail: after 0..=[`MAX_OCTAVES`] octaves.
+pub const SPLITS: usize = MAX_OCTAVES + 1;
+
+/// A terrain split, over a cap, into a coarse part the march evaluates and fine octaves it
+/// only bounds, at every split point k (module docs, "Split steps").
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ScaleSplit {
+    /// Split points 0..=`count` are set (`count`: the octaves in all).
+    pub count: usize,
+    /// Bound of the fine part's |height| anywhere in the cap, metres.
+    pub fine_m: [f64; SPLITS],
+    /// Bound of the coarse part's |∇h| in the cap, metres per metre along the sphere.
+    pub slope_max: [f64; SPLITS],
+    /// The water level the surface is raised to, if any.
+    pub water_level_m: Option<f64>,
+}
+
 /// A terrain function over a sphere, as the ray caster and the metric evaluate it (f64).
 pub trait HeightField: Sync {
     /// Radius R of the sphere the heights are measured from, metres.
@@ -111,6 +136,28 @@ pub trait HeightField: Sync {
     /// Bounds of [`HeightField::height_seen_m`] over a cap.
     fn local_bounds_seen(&self, u_world: DVec3, angle_rad: f64, _viewer_u: DVec3) -> LocalBounds {
         self.local_bounds(u_world, angle_rad)
+    }
+
+    /// [`HeightField::local_bounds_seen`] and, for a terrain made of octaves, its
+    /// [`ScaleSplit`] over the same cap (None: the march takes whole-terrain steps only).
+    fn local_bounds_split_seen(
+        &self,
+        u_world: DVec3,
+        angle_rad: f64,
+        viewer_u: DVec3,
+    ) -> (LocalBounds, Option<ScaleSplit>) {
+        (self.local_bounds_seen(u_world, angle_rad, viewer_u), None)
+    }
+
+    /// [`HeightField::height_seen_m`] and, where the field splits ([`ScaleSplit`]), the coarse
+    /// part's height of every split point k in `coarse_m[k]` (before the water).
+    fn height_seen_split_m(
+        &self,
+        u_world: DVec3,
+        viewer_u: DVec3,
+        _coarse_m: &mut [f64; SPLITS],
+    ) -> f64 {
+        self.height_seen_m(u_world, viewer_u)
     }
 }
 
@@ -154,9 +201,21 @@ impl HeightField for Terrain {
     /// within κ⁻¹ of the floor's cell of the viewer). |t_⌊λ(s)⌋|/s ≤ a_⌊λ(s)⌋·m/s is largest
     /// at the cap's nearest point (a_k/s_k grows as r^{k(1−H)} with H ≤ 1).
     fn local_bounds_seen(&self, u_world: DVec3, angle_rad: f64, viewer_u: DVec3) -> LocalBounds {
+        self.local_bounds_split_seen(u_world, angle_rad, viewer_u).0
+    }
+
+    /// The split's fine part: the octaves from k on, at most σ_max·Σ_{j≥k} w_j(λ_max)·a_j·(1 +
+    /// g_h) anywhere in the cap (weights only fall with λ). Its coarse part's slope: the base's,
+    /// |∇σ|·|Σ_{j<k}| + σ_max·|∇Σ_{j<k}|, and the fade of λ (as for the whole terrain).
+    fn local_bounds_split_seen(
+        &self,
+        u_world: DVec3,
+        angle_rad: f64,
+        viewer_u: DVec3,
+    ) -> (LocalBounds, Option<ScaleSplit>) {
         let base = base_bounds(self, u_world, angle_rad);
         let Some(d) = self.detail() else {
-            return with_water_bounds(base, self.water_level_m());
+            return (with_water_bounds(base, self.water_level_m()), None);
         };
         let arc = sphere::great_circle_distance_m(u_world, viewer_u, 1.0);
         let r = d.radius_m();
@@ -165,6 +224,8 @@ impl HeightField for Terrain {
         let lambda_hi = d.lambda_at_arc_m(arc_min_m);
         let lambda_lo = d.lambda_at_arc_m(arc_max_m);
         let (d_lo, d_hi, slope) = d.bounds_near_tight(u_world, angle_rad, lambda_hi);
+        let (_, relief_hi, relief_slope) = d.roughness().bounds_near(u_world, angle_rad);
+        let sigma_hi = d.amplitude_for_relief_m(relief_hi);
         let fade_slope = if lambda_lo >= d.lambda_full() || d.octave_count() == 0 {
             0.0
         } else {
@@ -172,18 +233,48 @@ impl HeightField for Terrain {
             let floor_cell = d.octaves().last().map_or(0.0, |o| o.cell_m);
             let s_eff = arc_min_m.max(floor_cell / p.geometry_cut);
             let k = (lambda_hi.floor() as usize).min(d.octave_count() - 1);
-            let (_, relief, _) = d.roughness().bounds_near(u_world, angle_rad);
-            let sigma = d.amplitude_for_relief_m(relief);
-            sigma * (1.0 + p.height_roughness) * d.octaves()[k].amplitude
+            sigma_hi * (1.0 + p.height_roughness) * d.octaves()[k].amplitude
                 / (s_eff * p.lacunarity.ln())
         };
+        let split = (d.octave_count() > 0 && base.slope_max.is_finite()).then(|| {
+            let b = d.split_bounds(lambda_hi);
+            let sigma_slope = d.params().roughness_gain * d.relief_scale() * relief_slope;
+            let mut split = ScaleSplit {
+                count: b.count,
+                fine_m: [0.0; SPLITS],
+                slope_max: [0.0; SPLITS],
+                water_level_m: self.water_level_m(),
+            };
+            for k in 0..=b.count {
+                split.fine_m[k] = sigma_hi * b.amplitude[k];
+                split.slope_max[k] =
+                    base.slope_max + sigma_hi * b.slope[k] + sigma_slope * b.coarse[k] + fade_slope;
+            }
+            split
+        });
         let base = tighten(base, self.base_height_m(u_world), angle_rad * r);
         let ground = LocalBounds {
             min_m: base.min_m + d_lo,
             max_m: base.max_m + d_hi,
             slope_max: base.slope_max + slope + fade_slope,
         };
-        with_water_bounds(ground, self.water_level_m())
+        (with_water_bounds(ground, self.water_level_m()), split)
+    }
+
+    /// Bit for bit [`Terrain::height_for_viewer_m`] (the same sums in the same order).
+    fn height_seen_split_m(
+        &self,
+        u_world: DVec3,
+        viewer_u: DVec3,
+        coarse_m: &mut [f64; SPLITS],
+    ) -> f64 {
+        let Some(d) = self.detail() else {
+            return self.height_seen_m(u_world, viewer_u);
+        };
+        let base = self.base_height_m(u_world);
+        let arc = sphere::great_circle_distance_m(u_world, viewer_u, 1.0);
+        let h = base + detail_prefixes_m(d, u_world, d.lambda_at_angle(arc), base, coarse_m);
+        crate::terrain::with_water(h, self.water_level_m())
     }
 
     fn finest_bound_angle_rad(&self) -> f64 {
@@ -197,6 +288,28 @@ impl HeightField for Terrain {
             Base::Dem(d) => d.pyramid().grid(0).dlat_deg.to_radians(),
         }
     }
+}
+
+/// σ(u)·Σ_k w_k t_k, and base + σ(u)·Σ_{j<k} w_j t_j in `coarse_m[k]` for k = 0..=n.
+fn detail_prefixes_m(
+    d: &Detail,
+    u: DVec3,
+    lambda: f64,
+    base_m: f64,
+    coarse_m: &mut [f64; SPLITS],
+) -> f64 {
+    let n = d.octave_count();
+    let sigma = d.amplitude_m(u);
+    if sigma == 0.0 {
+        coarse_m[..=n].fill(base_m);
+        return 0.0;
+    }
+    let mut prefixes = [0.0; SPLITS];
+    d.normalized_prefixes(u, lambda, &mut prefixes);
+    for k in 0..=n {
+        coarse_m[k] = base_m + sigma * prefixes[k];
+    }
+    sigma * prefixes[n]
 }
 
 /// Bounds of a field with slope bound L over a cap of radius ρ metres around a point of
@@ -752,6 +865,17 @@ impl<'a, H: HeightField + ?Sized> RayCaster<'a, H> {
                 .height_seen_m(self.world_from_view * (p / r), self.viewer_u)
     }
 
+    /// [`RayCaster::clearance_m`], with the coarse heights of every split at `p`.
+    fn clearance_split_m(&self, p: DVec3, coarse_m: &mut [f64; SPLITS]) -> f64 {
+        let r = p.length();
+        r - self.radius_m
+            - self.field.height_seen_split_m(
+                self.world_from_view * (p / r),
+                self.viewer_u,
+                coarse_m,
+            )
+    }
+
     /// The distance to the first crossing along the unit ray `d`, or None (sky). See the
     /// module documentation for the steps and the guarantee.
     fn march(&self, d: DVec3, pixels_per_rad: f64, steps: &mut u64) -> Option<f64> {
@@ -776,6 +900,10 @@ impl<'a, H: HeightField + ?Sized> RayCaster<'a, H> {
         let mut t = t_enter.max(0.0);
         let mut alpha = CAP_START_RAD;
         let mut cap: Option<Cap> = None;
+        // The clearance where the last step landed, with the coarse heights of every split
+        // there (so that a step's end is not evaluated twice).
+        let mut landed: Option<(f64, f64)> = None;
+        let mut coarse_m = [0.0; SPLITS];
         loop {
             *steps += 1;
             if t >= t_end {
@@ -789,14 +917,16 @@ impl<'a, H: HeightField + ?Sized> RayCaster<'a, H> {
                 Some(c) if t < c.end_t => c,
                 _ => {
                     let a = alpha.clamp(alpha_min, CAP_MAX_RAD);
+                    let (bounds, split) = self.field.local_bounds_split_seen(
+                        self.world_from_view * u,
+                        a,
+                        self.viewer_u,
+                    );
                     let c = Cap {
                         alpha_rad: a,
                         end_t: t + cap_exit_m(u, r, d, a),
-                        bounds: self.field.local_bounds_seen(
-                            self.world_from_view * u,
-                            a,
-                            self.viewer_u,
-                        ),
+                        bounds,
+                        split,
                     };
                     cap = Some(c);
                     c
@@ -819,11 +949,11 @@ impl<'a, H: HeightField + ?Sized> RayCaster<'a, H> {
                     continue;
                 }
             }
-            let f = r
-                - self.radius_m
-                - self
-                    .field
-                    .height_seen_m(self.world_from_view * u, self.viewer_u);
+            let f = match landed {
+                Some((landed_t, f)) if landed_t == t => f,
+                _ => self.clearance_split_m(p, &mut coarse_m),
+            };
+            landed = Some((t, f));
             if f <= 0.0 {
                 return Some(t);
             }
@@ -838,13 +968,29 @@ impl<'a, H: HeightField + ?Sized> RayCaster<'a, H> {
             }
             // Lipschitz step within the cap, or the minimum step. The clearance falls at most
             // at −dr/ds + L·R/r_min per metre, and dr/ds only grows along a line (r is convex).
-            let falls_per_m = (-d.dot(u)).max(0.0) + c.bounds.slope_max * ground_per_ray_m;
-            let safe = (f / falls_per_m).min(c.end_t - t);
+            let descent = (-d.dot(u)).max(0.0);
+            let mut safe = f / (descent + c.bounds.slope_max * ground_per_ray_m);
+            if let Some(split) = &c.split {
+                // Split steps: the coarse part evaluated here, the fine part by its bound.
+                for (k, &coarse_k) in coarse_m.iter().enumerate().take(split.count + 1) {
+                    let mut top_m = coarse_k + split.fine_m[k];
+                    if let Some(w) = split.water_level_m {
+                        top_m = top_m.max(w);
+                    }
+                    let f_k = r - self.radius_m - top_m;
+                    if f_k > 0.0 {
+                        let falls_per_m = descent + split.slope_max[k] * ground_per_ray_m;
+                        safe = safe.max(f_k / falls_per_m);
+                    }
+                }
+            }
+            let safe = safe.min(c.end_t - t);
             let t_next = (t + safe.max(s_min(t))).min(t_end);
-            let f_next = self.clearance_m(e + t_next * d);
+            let f_next = self.clearance_split_m(e + t_next * d, &mut coarse_m);
             if f_next <= 0.0 {
                 return Some(self.refine(d, (t, f), (t_next, f_next), pixels_per_rad, steps));
             }
+            landed = Some((t_next, f_next));
             t = t_next;
             if t >= c.end_t {
                 alpha = 2.0 * alpha_min.max(2.0 * f_next / self.shell_bottom_m);
@@ -904,6 +1050,7 @@ struct Cap {
     alpha_rad: f64,
     end_t: f64,
     bounds: LocalBounds,
+    split: Option<ScaleSplit>,
 }
 
 /// Both distances where the line o + t·d (unit d) meets the sphere of `radius_m` about the

@@ -418,6 +418,19 @@ pub struct OctaveAnchorF32 {
     pub seed: u32,
 }
 
+/// Bounds of the detail split into coarse and fine octaves, for each split point
+/// ([`Detail::split_bounds`]); entries 0..=`count` are set.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SplitBounds {
+    pub count: usize,
+    /// Bound of |Σ_{j ≥ k} w_j t_j|: the fine octaves' amplitude (units of σ).
+    pub amplitude: [f64; MAX_OCTAVES + 1],
+    /// Bound of |∇ Σ_{j < k} w_j t_j| per metre: the coarse octaves' slope (units of σ).
+    pub slope: [f64; MAX_OCTAVES + 1],
+    /// Bound of |Σ_{j < k} w_j t_j|: the coarse octaves' amplitude (units of σ).
+    pub coarse: [f64; MAX_OCTAVES + 1],
+}
+
 /// The octaves a clipmap level holds: `full` whole ones (summed into its heights) and
 /// `partial` ones after them, kept apart so the vertex can weight them by its own λ.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
@@ -618,11 +631,40 @@ impl Detail {
 
     /// Σ_{k < count} w_k(λ)·t_k: the first `count` octaves (units of σ).
     pub fn normalized_first(&self, u: DVec3, lambda: f64, count: usize) -> f64 {
+        let mut out = 0.0;
+        self.weighted_octaves(u, lambda, count, |_, wt| out += wt);
+        out
+    }
+
+    /// Every prefix of [`Detail::normalized`]: `out[k]` = Σ_{j < k} w_j(λ)·t_j for
+    /// k = 0..=n (units of σ), for the cost of the whole sum. The reference ray caster splits
+    /// the detail there into coarse octaves it evaluates and fine ones it bounds.
+    pub fn normalized_prefixes(&self, u: DVec3, lambda: f64, out: &mut [f64; MAX_OCTAVES + 1]) {
+        let n = self.octaves.len();
+        out[0] = 0.0;
+        let mut sum = 0.0;
+        let mut done = 0;
+        self.weighted_octaves(u, lambda, n, |k, wt| {
+            sum += wt;
+            out[k + 1] = sum;
+            done = k + 1;
+        });
+        // Past the first octave of weight 0 every prefix is the whole sum.
+        out[done + 1..=n].fill(sum);
+    }
+
+    /// Calls `each(k, w_k·t_k)` for the first `count` octaves, up to the first of weight 0.
+    fn weighted_octaves(
+        &self,
+        u: DVec3,
+        lambda: f64,
+        count: usize,
+        mut each: impl FnMut(usize, f64),
+    ) {
         let p = &self.params;
         let r0 = p.r0_roughness();
         let mut state = warp::WarpState::start();
         let mut h_all = 0f64;
-        let mut out = 0.0;
         let position = u * self.radius_m;
         for (k, o) in self.octaves.iter().enumerate().take(count) {
             let w = Self::weight(k, lambda);
@@ -636,10 +678,9 @@ impl Detail {
             let m = 1.0 + p.height_roughness * h_all.clamp(-1.0, 1.0);
             let t = o.amplitude * m * s;
             h_all += t;
-            out += w * t;
+            each(k, w * t);
             state.advance(&p.warp, r0, h_all);
         }
-        out
     }
 
     /// Bound of |Σ w_k t_k| for octaves up to λ (units of σ).
@@ -667,11 +708,19 @@ impl Detail {
 
     /// As [`Detail::normalized_slope_bound`] for the first `count` octaves.
     pub fn normalized_slope_bound_first(&self, lambda: f64, count: usize) -> f64 {
+        let mut g_out = 0.0;
+        self.octave_slope_bounds(lambda, count, |_, wg| g_out += wg);
+        g_out
+    }
+
+    /// Calls `each(k, w_k·|∇t_k| bound)` for the first `count` octaves, up to the first of
+    /// weight 0: the chain rule of [`Detail::normalized_slope_bound`], octave by octave.
+    fn octave_slope_bounds(&self, lambda: f64, count: usize, mut each: impl FnMut(usize, f64)) {
         let p = &self.params;
         let r0 = p.r0_roughness();
         let c1 = (p.warp.c1[0].powi(2) + p.warp.c1[1].powi(2)).sqrt();
         let m = 1.0 + p.height_roughness;
-        let (mut g_all, mut g_out, mut g_v) = (0.0, 0.0, 0.0);
+        let (mut g_all, mut g_v) = (0.0, 0.0);
         for (k, o) in self.octaves.iter().enumerate().take(count) {
             let w = Self::weight(k, lambda);
             if w == 0.0 {
@@ -681,10 +730,45 @@ impl Detail {
             let dx = 1.0 / o.cell_m + p.warp.lever_cells * g_v / warp::NORMALIZE_FLOOR;
             let g_t = o.amplitude * (m * noise::GRADIENT_MAX * dx + p.height_roughness * g_all);
             g_all += g_t;
-            g_out += w * g_t;
+            each(k, w * g_t);
             g_v += c1 * r0 * g_all;
         }
-        g_out
+    }
+
+    /// For every split of the detail at octave k = 0..=n (units of σ, octaves up to λ):
+    /// `amplitude[k]` bounds |Σ_{j ≥ k} w_j t_j| (what is left out) and `slope[k]` bounds
+    /// |∇ Σ_{j < k} w_j t_j| per metre, `coarse[k]` bounds |Σ_{j < k} w_j t_j|.
+    pub fn split_bounds(&self, lambda: f64) -> SplitBounds {
+        let n = self.octaves.len();
+        let mut b = SplitBounds {
+            count: n,
+            amplitude: [0.0; MAX_OCTAVES + 1],
+            slope: [0.0; MAX_OCTAVES + 1],
+            coarse: [0.0; MAX_OCTAVES + 1],
+        };
+        let m = 1.0 + self.params.height_roughness;
+        let mut done = 0;
+        let mut coarse = 0.0;
+        for (k, o) in self.octaves.iter().enumerate() {
+            let w = Self::weight(k, lambda);
+            if w == 0.0 {
+                break;
+            }
+            coarse += w * o.amplitude * m;
+            b.coarse[k + 1] = coarse;
+            done = k + 1;
+        }
+        b.coarse[done + 1..=n].fill(coarse);
+        for k in 0..=n {
+            b.amplitude[k] = coarse - b.coarse[k];
+        }
+        let mut slope = 0.0;
+        self.octave_slope_bounds(lambda, n, |k, wg| {
+            slope += wg;
+            b.slope[k + 1] = slope;
+        });
+        b.slope[done + 1..=n].fill(slope);
+        b
     }
 
     /// Bounds of D over a cap of `angle_rad` around `u` for octaves up to λ: (|D| max,

@@ -5,6 +5,7 @@ use std::path::{Path, PathBuf};
 
 use super::reader::EhdrRaster;
 use super::sample::{self, PixelSource};
+use crate::dem::mosaic::{MosaicTile, read_mosaic_row};
 use crate::dem::{DemError, GeoGrid, RasterSource};
 
 /// Relative tolerance on XDIM/YDIM between tiles.
@@ -23,7 +24,7 @@ struct Tile {
     overlaps: bool,
 }
 
-impl Tile {
+impl MosaicTile for Tile {
     fn rows(&self) -> std::ops::Range<usize> {
         self.row0..self.row0 + self.raster.header().nrows
     }
@@ -32,6 +33,16 @@ impl Tile {
         self.col0..self.col0 + self.raster.header().ncols
     }
 
+    fn may_overlap(&self) -> bool {
+        self.overlaps
+    }
+
+    fn read_tile_row(&self, row: usize, out: &mut [f32]) -> Result<(), DemError> {
+        self.raster.read_row(row, out)
+    }
+}
+
+impl Tile {
     fn contains(&self, row: usize, col: usize) -> bool {
         self.rows().contains(&row) && self.cols().contains(&col)
     }
@@ -387,35 +398,7 @@ impl RasterSource for EhdrMosaic {
     /// Fills `out` with NaN, then copies in the row of every tile that covers it (tiles that
     /// overlap another only fill pixels still NaN, so a value beats NODATA).
     fn read_row(&self, row: usize, out: &mut [f32]) -> Result<(), DemError> {
-        if row >= self.grid.rows || out.len() != self.grid.cols {
-            return Err(DemError::Other(format!(
-                "{}: read_row({row}) with a buffer of {} values; expected row < {} and {} values",
-                self.description,
-                out.len(),
-                self.grid.rows,
-                self.grid.cols
-            )));
-        }
-        out.fill(f32::NAN);
-        let mut scratch: Vec<f32> = Vec::new();
-        for t in &self.tiles {
-            if !t.rows().contains(&row) {
-                continue;
-            }
-            let dst = &mut out[t.cols()];
-            if t.overlaps {
-                scratch.resize(dst.len(), 0.0);
-                t.raster.read_row(row - t.row0, &mut scratch)?;
-                for (o, &v) in dst.iter_mut().zip(&scratch) {
-                    if o.is_nan() {
-                        *o = v;
-                    }
-                }
-            } else {
-                t.raster.read_row(row - t.row0, dst)?;
-            }
-        }
-        Ok(())
+        read_mosaic_row(&self.description, &self.grid, &self.tiles, row, out)
     }
 
     fn describe(&self) -> String {
