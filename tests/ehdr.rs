@@ -2,6 +2,8 @@
 //! mosaics, every bad input we know of, garbage headers, and a cross-check against GDAL's
 //! `gdallocationinfo` when it is installed.
 
+mod gdal_common;
+
 use std::path::{Path, PathBuf};
 
 use globe::dem::ehdr::{
@@ -1604,37 +1606,6 @@ fn gdallocationinfo_available() -> bool {
         .is_ok_and(|o| o.status.success())
 }
 
-/// Values gdallocationinfo reports at (lon, lat) points, in one run (points on stdin).
-fn gdal_values(file: &Path, points: &[(f64, f64)]) -> Vec<String> {
-    use std::io::Write;
-    let mut child = std::process::Command::new("gdallocationinfo")
-        .args(["-valonly", "-geoloc"])
-        .arg(file)
-        .stdin(std::process::Stdio::piped())
-        .stdout(std::process::Stdio::piped())
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .unwrap();
-    let input: String = points
-        .iter()
-        .map(|(lat, lon)| format!("{lon} {lat}\n")) // shortest round-trip text: GDAL parses the same f64
-        .collect();
-    let mut stdin = child.stdin.take().unwrap();
-    let writer = std::thread::spawn(move || stdin.write_all(input.as_bytes()));
-    let out = child.wait_with_output().unwrap();
-    writer.join().unwrap().unwrap();
-    assert!(
-        out.status.success(),
-        "gdallocationinfo failed: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    String::from_utf8(out.stdout)
-        .unwrap()
-        .lines()
-        .map(|l| l.trim().to_string())
-        .collect()
-}
-
 /// Points covering a tile, in (row, col) pixel coordinates: corner and edge pixel centres,
 /// points a quarter pixel inside and outside the outer edges (all along them), points exactly on
 /// the outer edges and on inner pixel edges, and pseudo-random interior points.
@@ -1717,7 +1688,7 @@ fn gdal_cross_check_gtopo30_shapes() {
             .iter()
             .map(|&(row, col)| (grid.lat_of_row(row), grid.lon_of_col(col)))
             .collect();
-        let gdal = gdal_values(&data, &points);
+        let gdal = gdal_common::gdal_values(&data, &points);
         assert_eq!(
             gdal.len(),
             points.len(),
