@@ -223,8 +223,9 @@ impl HeightField for Terrain {
         let arc_max_m = (arc + angle_rad) * r;
         let lambda_hi = d.lambda_at_arc_m(arc_min_m);
         let lambda_lo = d.lambda_at_arc_m(arc_max_m);
-        let (d_lo, d_hi, slope) = d.bounds_near_tight(u_world, angle_rad, lambda_hi);
-        let (_, relief_hi, relief_slope) = d.roughness().bounds_near(u_world, angle_rad);
+        let relief = d.roughness().bounds_near(u_world, angle_rad);
+        let (d_lo, d_hi, slope) = d.bounds_near_tight(u_world, angle_rad, lambda_hi, relief);
+        let (_, relief_hi, relief_slope) = relief;
         let sigma_hi = d.amplitude_for_relief_m(relief_hi);
         let fade_slope = if lambda_lo >= d.lambda_full() || d.octave_count() == 0 {
             0.0

@@ -786,9 +786,17 @@ impl Detail {
 
     /// Tight bounds of D over a cap: the octaves much larger than the cap (cells ≥ 4× its
     /// radius) evaluated at its centre, ± their slope bound times the radius; the finer ones
-    /// by their amplitude. Returns (min, max, |∇D| max) in metres.
-    pub fn bounds_near_tight(&self, u: DVec3, angle_rad: f64, lambda: f64) -> (f64, f64, f64) {
-        let (relief_lo, relief_hi, relief_slope) = self.roughness.bounds_near(u, angle_rad);
+    /// by their amplitude. `relief`: the relief map's bounds over the cap
+    /// ([`RoughnessMap::bounds_near`], which the caller also needs). Returns (min, max, |∇D|
+    /// max) in metres.
+    pub fn bounds_near_tight(
+        &self,
+        u: DVec3,
+        angle_rad: f64,
+        lambda: f64,
+        relief: (f64, f64, f64),
+    ) -> (f64, f64, f64) {
+        let (relief_lo, relief_hi, relief_slope) = relief;
         let (s_lo, s_hi) = (
             self.amplitude_for_relief_m(relief_lo),
             self.amplitude_for_relief_m(relief_hi),
