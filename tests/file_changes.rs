@@ -42,22 +42,6 @@ fn earth_copy(dir: &Path) -> (PathBuf, Vec<u8>) {
     (path, bytes)
 }
 
-fn all_keys(p: &Pyramid) -> Vec<TileKey> {
-    let mut keys = Vec::new();
-    for (level, l) in p.levels().iter().enumerate() {
-        for ty in 0..l.tiles_y {
-            for tx in 0..l.tiles_x {
-                keys.push(TileKey {
-                    level: level as u32,
-                    tx: tx as u32,
-                    ty: ty as u32,
-                });
-            }
-        }
-    }
-    keys
-}
-
 /// Waits for the watcher's next state that is a change.
 fn next_change(streamer: &TileStreamer, timeout: Duration) -> Option<FileChange> {
     let deadline = Instant::now() + timeout;
@@ -111,7 +95,7 @@ fn open_and_stream(
     let pyramid = Arc::new(Pyramid::open(path).unwrap());
     let source: Arc<dyn TileSource> = Arc::new(MmapTileSource::new(pyramid.clone()));
     let streamer = TileStreamer::new(source.clone(), &settings()).unwrap();
-    let keys = all_keys(&pyramid);
+    let keys = common::all_tile_keys(&pyramid);
     let first = stream(&streamer, &keys[..keys.len() / 2]);
     assert!(first.values().all(|c| matches!(c, Completion::Loaded(_))));
     std::thread::sleep(Duration::from_millis(100));

@@ -198,22 +198,6 @@ fn options(cache: &Path) -> RemoteOptions {
     }
 }
 
-fn all_keys(p: &Pyramid) -> Vec<TileKey> {
-    let mut keys = Vec::new();
-    for (level, l) in p.levels().iter().enumerate() {
-        for ty in 0..l.tiles_y {
-            for tx in 0..l.tiles_x {
-                keys.push(TileKey {
-                    level: level as u32,
-                    tx: tx as u32,
-                    ty: ty as u32,
-                });
-            }
-        }
-    }
-    keys
-}
-
 /// Streams every tile of `remote` through the streamer (all wanted at once, so neighbours
 /// share requests) and checks each against the local file's tile; tiles that fail are asked
 /// for again until `deadline`. Returns the streamer's failed-request count.
@@ -224,7 +208,7 @@ fn stream_all_equal(remote: &Arc<Pyramid>, local: &Arc<Pyramid>, deadline: Durat
 
 /// As [`stream_all_equal`], from any source of `local`'s tiles.
 fn stream_all_from(source: Arc<dyn TileSource>, local: &Arc<Pyramid>, deadline: Duration) -> u64 {
-    let keys = all_keys(local);
+    let keys = common::all_tile_keys(local);
     stream_keys(
         source,
         &keys,
@@ -307,7 +291,7 @@ fn http_tiles_equal_the_local_files_and_a_second_visit_costs_no_request() {
     // Throughput against the local file's map in one run, the same pipeline and checks, on
     // the level-0 tiles off the polar rows (none of them in memory): a figure.
     let l0 = local.levels()[0];
-    let keys: Vec<TileKey> = all_keys(&local)
+    let keys: Vec<TileKey> = common::all_tile_keys(&local)
         .into_iter()
         .filter(|k| k.level == 0 && k.ty > 0 && (k.ty as usize) < l0.tiles_y - 1)
         .collect();
@@ -369,7 +353,7 @@ fn http_tiles_equal_the_local_files_and_a_second_visit_costs_no_request() {
     let store2 = again.remote().unwrap().clone();
     let opened2 = store2.stats();
     let source = RemoteTileSource::new(again.clone()).unwrap();
-    for k in all_keys(&again) {
+    for k in common::all_tile_keys(&again) {
         source.read(k).unwrap();
     }
     let s2 = store2.stats();
@@ -675,7 +659,7 @@ fn the_view_completes_after_the_server_is_killed_mid_flight_and_restarted() {
     let mut killed = false;
     let failed = stream_keys(
         source,
-        &all_keys(&local),
+        &common::all_tile_keys(&local),
         &local,
         Duration::from_secs(120),
         &settings,

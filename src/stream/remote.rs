@@ -37,13 +37,6 @@ impl TileSource for RemoteTileSource {
             .pyramid
             .tile_of_payload(level, tx, ty, &bytes)
             .map_err(err)?;
-        Ok(TileData {
-            key,
-            tile_size: view.tile_size,
-            encoding: view.encoding,
-            avg: view.avg.into_owned(),
-            min: view.min.into_owned(),
-            max: view.max.into_owned(),
-        })
+        Ok(TileData::from_view(key, view))
     }
 }

@@ -7,7 +7,7 @@ use std::time::Duration;
 
 use super::{TileError, TileKey};
 use crate::dem::FileChange;
-use crate::dem::pyramid::{Encoding, Plane, Pyramid};
+use crate::dem::pyramid::{Encoding, Plane, Pyramid, TileView};
 
 /// A decoded tile: the three planes (rows north to south, `tile_size²` codes each; codes past
 /// the level's last row/column repeat it, as in the file).
@@ -22,6 +22,18 @@ pub struct TileData {
 }
 
 impl TileData {
+    /// The tile `key` read as `view` (verified by the caller), copied out of the file.
+    pub fn from_view(key: TileKey, view: TileView<'_>) -> Self {
+        Self {
+            key,
+            tile_size: view.tile_size,
+            encoding: view.encoding,
+            avg: view.avg.into_owned(),
+            min: view.min.into_owned(),
+            max: view.max.into_owned(),
+        }
+    }
+
     /// Bytes this tile holds in memory (what the LRU budget counts).
     pub fn bytes(&self) -> u64 {
         (2 * (self.avg.len() + self.min.len() + self.max.len()) + std::mem::size_of::<Self>())
@@ -73,14 +85,7 @@ impl TileSource for MmapTileSource {
             .check_tile_in_file(level, tx, ty)
             .map_err(err)?;
         let view = self.pyramid.tile_verified(level, tx, ty).map_err(err)?;
-        Ok(TileData {
-            key,
-            tile_size: view.tile_size,
-            encoding: view.encoding,
-            avg: view.avg.into_owned(),
-            min: view.min.into_owned(),
-            max: view.max.into_owned(),
-        })
+        Ok(TileData::from_view(key, view))
     }
 
     fn file_change(&self) -> Option<FileChange> {

@@ -161,3 +161,20 @@ pub fn run_compute(
     back.unmap();
     bytes
 }
+
+/// Every tile key of a pyramid, level by level, row by row.
+pub fn all_tile_keys(p: &globe::dem::pyramid::Pyramid) -> Vec<globe::stream::TileKey> {
+    let mut keys = Vec::new();
+    for (level, l) in p.levels().iter().enumerate() {
+        for ty in 0..l.tiles_y {
+            for tx in 0..l.tiles_x {
+                keys.push(globe::stream::TileKey {
+                    level: level as u32,
+                    tx: tx as u32,
+                    ty: ty as u32,
+                });
+            }
+        }
+    }
+    keys
+}
