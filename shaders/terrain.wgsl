@@ -134,6 +134,9 @@ override TRANSFORM: u32 = TRANSFORM_STABLE;
 // shading), the atmosphere's haze. Off: the plain tint, one Lambert light.
 override TEXTURES: bool = true;
 override WATER: bool = true;
+// The water's shading (WATER on): off in the pipeline that draws what the water cull proved
+// dry (render::water_cull), the geometry rule max(h, level) kept.
+override WET: bool = true;
 override SKY: bool = true;
 // A planar LOD method draws near the viewer: the clipmap's fragments in its square go
 // (planar.wgsl). Geomorphing of the geomipmapping patches.
@@ -668,7 +671,7 @@ fn shade(in_: VertexOut, rel_d: vec3<f32>) -> vec4<f32> {
     let world_up = look_world(up);
     let pw = pick_planes(world_up);
     var colour: vec3<f32>;
-    if WATER && h < look.water_level_m {
+    if WATER && WET && h < look.water_level_m {
         // Water (infinite-landscapes-projected-grid.md §4.3): a flat surface at the level with
         // small waves in the normal only, Fresnel reflection of the sky, a sun glint and a
         // body colour by depth (shallow water shows its sandy bottom).

@@ -273,8 +273,8 @@ fn every_assembled_module_keeps_the_contract() {
     let contracts = pass_contracts();
     assert_eq!(
         contracts.len(),
-        5,
-        "terrain, analytic fill, DEM fill, sky, normals"
+        6,
+        "terrain, analytic fill, DEM fill, sky, normals, water cull"
     );
     for c in &contracts {
         let problems = check(c);
@@ -299,6 +299,7 @@ fn shader_files_declare_no_constants_of_their_own() {
         ("terrain.wgsl", globe::render::shader::TERRAIN),
         ("fill_analytic.wgsl", globe::render::shader::FILL_ANALYTIC),
         ("fill_dem.wgsl", globe::render::shader::FILL_DEM),
+        ("water_cull.wgsl", globe::render::shader::WATER_CULL),
         (
             "common/map_transform.wgsl",
             include_str!("../shaders/common/map_transform.wgsl"),

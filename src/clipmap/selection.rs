@@ -307,6 +307,8 @@ pub struct DrawList {
     /// Per range: which shader variant it needs (the others leave out code that a CPU
     /// rasteriser runs even when no lane takes it).
     pub variants: Vec<Variant>,
+    /// Per range: its level (the water cull decides per level which pipeline draws it).
+    pub levels: Vec<u32>,
     pub triangles: u64,
     pub sectors_drawn: u32,
     pub sectors_culled: u32,
@@ -339,7 +341,8 @@ impl DrawList {
                     range: &Range<u32>,
                     sphere: &Sphere,
                     count: bool,
-                    variant: Variant| {
+                    variant: Variant,
+                    level: u32| {
             if frustum.is_some_and(|f| !f.intersects(sphere)) {
                 list.sectors_culled += count as u32;
                 return;
@@ -347,12 +350,17 @@ impl DrawList {
             list.sectors_drawn += count as u32;
             list.triangles += ((range.end - range.start) / 3) as u64;
             match list.ranges.last_mut() {
-                Some(last) if last.end == range.start && list.variants.last() == Some(&variant) => {
+                Some(last)
+                    if last.end == range.start
+                        && list.variants.last() == Some(&variant)
+                        && list.levels.last() == Some(&level) =>
+                {
                     last.end = range.end
                 }
                 _ => {
                     list.ranges.push(range.clone());
                     list.variants.push(variant);
+                    list.levels.push(level);
                 }
             }
         };
@@ -363,6 +371,7 @@ impl DrawList {
                 first_cut = Some(list.ranges.len());
                 list.ranges.push(0..0);
                 list.variants.push(Variant::Plain);
+                list.levels.push(level);
             }
             let (lo, hi) = radius_range_m(level);
             let d = densities.levels[level as usize];
@@ -396,7 +405,14 @@ impl DrawList {
                     // The sector's first part that has triangles stands for it.
                     let first = parts[..i].iter().all(|(p, _)| p[sector].is_empty());
                     if !range.is_empty() {
-                        push(&mut list, range, &cone.bounding_sphere(lo, hi), first, *v);
+                        push(
+                            &mut list,
+                            range,
+                            &cone.bounding_sphere(lo, hi),
+                            first,
+                            *v,
+                            level,
+                        );
                     }
                 }
             }
@@ -414,7 +430,14 @@ impl DrawList {
             .iter()
             .zip(&bounds.caps[f])
         {
-            push(&mut list, range, &cone.bounding_sphere(lo, hi), true, cap);
+            push(
+                &mut list,
+                range,
+                &cone.bounding_sphere(lo, hi),
+                true,
+                cap,
+                finest,
+            );
         }
         list.first_cut = first_cut.unwrap_or(list.ranges.len());
         list

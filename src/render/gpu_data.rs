@@ -268,6 +268,19 @@ pub struct DemFillParams {
     pub offset: [u32; 2],
 }
 
+/// `WaterCullParams` in `shaders/water_cull.wgsl`: one per frame.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct WaterCullParams {
+    /// A level is dry when its lowest texel is at least this (`render::water_cull::dry_from_m`).
+    pub dry_from_m: f32,
+    pub block: u32,
+    pub blocks_per_row: u32,
+    pub job_count: u32,
+    pub draw_count: u32,
+    pub _pad: [u32; 3],
+}
+
 /// `NormalParams` in `shaders/fill_normals.wgsl`: one per dispatch of the normal pass.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
@@ -633,6 +646,9 @@ gpu_struct!(NormalParams as "NormalParams" {
     slot0, extent, layer, size, partial_count, quarter, angles, trig, radius_m, pole_north,
     pole_south, offset_x, offset_y,
 });
+gpu_struct!(WaterCullParams as "WaterCullParams" {
+    dry_from_m, block, blocks_per_row, job_count, draw_count,
+});
 gpu_struct!(WaveParams as "Wave" { omega_a, omega_b, phases });
 gpu_struct!(FillParams as "FillParams" {
     ref_trig, spacing, slot0, extent, layer, size, offset, waves,
@@ -780,6 +796,20 @@ pub fn pass_contracts() -> Vec<PassContract> {
             buffers: vec![buffer(0, NormalParams::wgsl_type())],
             vertex: None,
             workgroup_size: Some(workgroup),
+        },
+        PassContract {
+            file: "water_cull.wgsl",
+            source: shader::assemble(shader::WATER_CULL),
+            structs: vec![WaterCullParams::layout()],
+            buffers: vec![
+                buffer(0, WaterCullParams::wgsl_type()),
+                buffer(2, "array<f32>".to_string()),
+                buffer(3, "array<u32>".to_string()),
+                buffer(4, "array<u32>".to_string()),
+                buffer(5, "array<u32>".to_string()),
+            ],
+            vertex: None,
+            workgroup_size: Some([64, 1, 1]),
         },
     ]
 }

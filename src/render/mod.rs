@@ -17,6 +17,7 @@ pub mod shader;
 pub mod terrain;
 pub mod tiles;
 pub mod timing;
+pub mod water_cull;
 
 pub use context::GpuContext;
 pub use offscreen::{OffscreenFrame, RenderedFrame};

@@ -34,6 +34,17 @@ pub fn normal_rect(grid: &LevelGrid, rect: &GridRect) -> GridRect {
     }
 }
 
+/// A rectangle of a level texture in texels (toroidal: it may run past the last column or
+/// row into the first).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SlotRect {
+    pub layer: u32,
+    pub x0: u32,
+    pub y0: u32,
+    pub width: u32,
+    pub height: u32,
+}
+
 /// Pipeline, parameter blocks and bind group of the normal pass.
 pub struct NormalPass {
     pipeline: wgpu::ComputePipeline,
@@ -128,7 +139,8 @@ impl NormalPass {
 
     /// Records the normals of the rectangles the fills of `jobs` wrote (each widened by a
     /// texel); `partials(level)` is the number of partial octaves a level holds. Returns the
-    /// texels written. Call after the fills, in the same encoder.
+    /// texture rectangles written (the water cull's blocks to redo). Call after the fills, in
+    /// the same encoder.
     pub fn encode(
         &self,
         queue: &wgpu::Queue,
@@ -137,7 +149,7 @@ impl NormalPass {
         radius_m: f64,
         partials: impl Fn(u32) -> u32,
         timestamps: Option<wgpu::ComputePassTimestampWrites<'_>>,
-    ) -> u64 {
+    ) -> Vec<SlotRect> {
         let blocks: Vec<(NormalParams, GridRect)> = jobs
             .iter()
             .map(|j| normal_rect(&j.grid, &j.rect))
@@ -160,7 +172,7 @@ impl NormalPass {
             "more normal jobs than the parameter buffer holds"
         );
         if blocks.is_empty() {
-            return 0;
+            return Vec::new();
         }
         let params: Vec<NormalParams> = blocks.iter().map(|(p, _)| *p).collect();
         self.params.write(queue, &params);
@@ -169,7 +181,6 @@ impl NormalPass {
             timestamp_writes: timestamps,
         });
         pass.set_pipeline(&self.pipeline);
-        let mut texels = 0;
         for (i, (_, rect)) in blocks.iter().enumerate() {
             pass.set_bind_group(0, &self.bind_group, &[self.params.offset(i)]);
             pass.dispatch_workgroups(
@@ -177,9 +188,17 @@ impl NormalPass {
                 rect.height.div_ceil(shader::WORKGROUP_SIZE),
                 1,
             );
-            texels += rect.texels();
         }
-        texels
+        blocks
+            .iter()
+            .map(|(p, _)| SlotRect {
+                layer: p.layer,
+                x0: p.slot0[0],
+                y0: p.slot0[1],
+                width: p.extent[0],
+                height: p.extent[1],
+            })
+            .collect()
     }
 }
 

@@ -31,6 +31,8 @@ pub const FILL_ANALYTIC: &str = include_str!("../../shaders/fill_analytic.wgsl")
 pub const FILL_DEM: &str = include_str!("../../shaders/fill_dem.wgsl");
 pub const FILL_NORMALS: &str = include_str!("../../shaders/fill_normals.wgsl");
 pub const SKY: &str = include_str!("../../shaders/sky.wgsl");
+/// Which terrain draws may leave the water's shading out (`render::water_cull`).
+pub const WATER_CULL: &str = include_str!("../../shaders/water_cull.wgsl");
 /// Appended to [`TERRAIN`] (one module): the planar LOD methods' vertex stages.
 pub const PLANAR: &str = include_str!("../../shaders/planar.wgsl");
 

@@ -30,6 +30,7 @@ use super::look::LookResources;
 use super::normals::{NORMAL_FORMAT, NormalPass};
 use super::planar::{PlanarDraw, PlanarResources};
 use super::shader::{self, MAX_LEVELS};
+use super::water_cull::WaterCull;
 
 pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 
@@ -136,8 +137,8 @@ pub struct TerrainRenderer {
     levels_buffer: wgpu::Buffer,
     bind_group: wgpu::BindGroup,
     /// One per shader variant: plain, with the coarse-level blend, with the density morph
-    /// (`clipmap::selection::Variant`, in that order).
-    pipelines: [wgpu::RenderPipeline; 3],
+    /// (`clipmap::selection::Variant`, in that order), with and without the water's shading.
+    pipelines: ClipmapPipelines,
     /// Same vertices and triangles, flat and untextured (benchmark reference).
     passthrough: wgpu::RenderPipeline,
     pipeline_parts: PipelineParts,
@@ -152,6 +153,9 @@ pub struct TerrainRenderer {
     last_camera: Option<Camera>,
     /// Debug/benchmark: draw with the pass-through pipeline instead of the terrain's.
     pub use_passthrough: bool,
+    /// Tests: draw every range with the water's shading, as before the water cull (which
+    /// still runs; only the draws ignore it).
+    pub ignore_water_cull: bool,
     /// Measurement: shade every bump octave whatever its size on screen (the naive policy the
     /// shimmer measurement compares against).
     pub naive_bump: bool,
@@ -170,6 +174,8 @@ pub struct TerrainRenderer {
     /// Per-level world-frame normals (`render::normals`), filled after the heights.
     normals: wgpu::Texture,
     normal_pass: NormalPass,
+    /// With water: which draws may leave its shading out (`render::water_cull`).
+    water_cull: Option<WaterCull>,
     /// Which LOD method draws near the ground (`set_lod`).
     lod: LodSettings,
     /// `auto`'s current choice (hysteresis).
@@ -185,9 +191,18 @@ pub struct TerrainRenderer {
     wire_pipelines: Option<WirePipelines>,
 }
 
+/// The clipmap's pipelines, one per `clipmap::selection::Variant` (plain, blend band,
+/// morphing levels): with the water's shading and, where the water cull may choose, without it.
+struct ClipmapPipelines {
+    wet: [wgpu::RenderPipeline; 3],
+    /// With water, drawn by indirect draws the cull gives an instance where it proved the
+    /// level dry (None: no water, or a draw that pulls its own indices).
+    dry: Option<[wgpu::RenderPipeline; 3]>,
+}
+
 /// Pipelines of a frame with a planar method.
 struct PlanarPipelines {
-    clipmap_cut: [wgpu::RenderPipeline; 3],
+    clipmap_cut: ClipmapPipelines,
     geomip: wgpu::RenderPipeline,
 }
 
@@ -201,8 +216,8 @@ struct GridPipelines {
 /// The wireframe overlay's pipelines: the same shading, drawn without an index buffer (the
 /// vertex stages read the indices and give each corner its barycentric coordinate).
 struct WirePipelines {
-    clipmap: [wgpu::RenderPipeline; 3],
-    clipmap_cut: [wgpu::RenderPipeline; 3],
+    clipmap: ClipmapPipelines,
+    clipmap_cut: ClipmapPipelines,
     geomip: wgpu::RenderPipeline,
     /// The projected grid's, without and with ray casting (built when first needed).
     grid: Option<GridPipelines>,
@@ -348,6 +363,15 @@ impl TerrainRenderer {
             &partials_view,
             &normals_view,
         );
+
+        let water_cull = terrain.water_level_m().is_some().then(|| {
+            WaterCull::new(
+                device,
+                &normals_view,
+                settings.levels,
+                settings.texture_size,
+            )
+        });
 
         let bump_buffer = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("bump uniforms"),
@@ -556,6 +580,7 @@ impl TerrainRenderer {
             look_time_s: 0.0,
             last_camera: None,
             use_passthrough: false,
+            ignore_water_cull: false,
             naive_bump: false,
             fill_timestamps: None,
             fill,
@@ -567,6 +592,7 @@ impl TerrainRenderer {
             bump_buffer,
             normals,
             normal_pass,
+            water_cull,
             lod,
             auto_planar: false,
             geomip_state: GeomipState::default(),
@@ -714,6 +740,34 @@ impl TerrainRenderer {
             })
             .collect();
         Ok(Some((grid, first, out)))
+    }
+
+    /// The lowest height in level `level`'s normal texture (the w the fragments compare with
+    /// the water level), read back: the water cull's input. None for a level never filled.
+    pub fn read_level_lowest_m(
+        &self,
+        ctx: &super::GpuContext,
+        level: u32,
+    ) -> Result<Option<f32>, RenderError> {
+        let Some(grid) = self.grids.get(level as usize).copied().flatten() else {
+            return Ok(None);
+        };
+        let texels = self.read_layer(ctx, &self.normals, &grid, 8)?;
+        Ok(Some(texels.iter().fold(f32::INFINITY, |lo, b| {
+            lo.min(f16_to_f32(u16::from_le_bytes([b[6], b[7]])))
+        })))
+    }
+
+    /// The water cull's choice for each draw range of the last frame prepared: true where the
+    /// pipeline without the water's code draws it (None: no water, no cull).
+    pub fn read_dry_draws(
+        &self,
+        ctx: &super::GpuContext,
+    ) -> Result<Option<Vec<bool>>, RenderError> {
+        match &self.water_cull {
+            Some(cull) => cull.read_dry(ctx).map(Some),
+            None => Ok(None),
+        }
     }
 
     /// The level's world-frame normals (`render::normals`) in grid order as
@@ -979,7 +1033,7 @@ impl TerrainRenderer {
                     beginning_of_pass_write_index: None,
                     end_of_pass_write_index: Some(3),
                 });
-        self.normal_pass.encode(
+        let normals_written = self.normal_pass.encode(
             queue,
             encoder,
             &normal_jobs,
@@ -1049,6 +1103,19 @@ impl TerrainRenderer {
             self.look_time_s,
         );
         queue.write_buffer(&self.look_resources.uniforms, 0, bytemuck::bytes_of(&look));
+        if let Some(cull) = &mut self.water_cull {
+            let entries: Vec<u32> = (clipmap.draw.levels.iter().zip(&clipmap.draw.variants))
+                .map(|(&l, &v)| super::water_cull::draw_entry(l, v != Variant::Plain))
+                .collect();
+            cull.encode(
+                queue,
+                encoder,
+                &normals_written,
+                &clipmap.draw.ranges,
+                &entries,
+                look.water_level_m,
+            );
+        }
 
         // A frame whose camera height came from coarser tiles than its own is not settled,
         // even if those tiles have arrived meanwhile.
@@ -1200,6 +1267,10 @@ impl TerrainRenderer {
             Some(w) => &w.clipmap,
             None => &self.pipelines,
         };
+        let cull = self
+            .water_cull
+            .as_ref()
+            .filter(|_| !self.use_passthrough && !self.ignore_water_cull);
         let cut = match (wire, planar) {
             (Some(w), Some(_)) => &w.clipmap_cut,
             (None, Some((_, p))) => &p.clipmap_cut,
@@ -1213,15 +1284,25 @@ impl TerrainRenderer {
             if i == info.draw.first_cut {
                 current = None;
             }
+            let v = match variant {
+                Variant::Plain => 0,
+                Variant::Blend => 1,
+                Variant::Morph => 2,
+            };
+            if let (Some(cull), Some(dry)) = (cull, &clipmap.dry) {
+                // Twice, each draw with the instance the water cull gave it or none.
+                pass.set_pipeline(&dry[v]);
+                pass.draw_indexed_indirect(cull.args(), WaterCull::offset(i, false));
+                pass.set_pipeline(&clipmap.wet[v]);
+                pass.draw_indexed_indirect(cull.args(), WaterCull::offset(i, true));
+                current = Some(variant);
+                continue;
+            }
             if current != Some(variant) {
                 pass.set_pipeline(if self.use_passthrough {
                     &self.passthrough
                 } else {
-                    &clipmap[match variant {
-                        Variant::Plain => 0,
-                        Variant::Blend => 1,
-                        Variant::Morph => 2,
-                    }]
+                    &clipmap.wet[v]
                 });
                 current = Some(variant);
             }
@@ -1336,9 +1417,11 @@ impl PipelineParts {
         morph: bool,
         blend: bool,
         cut: bool,
+        wet: bool,
     ) -> Vec<(&'static str, f64)> {
         let flag = |on: bool| if on { 1.0 } else { 0.0 };
         vec![
+            ("WET", flag(wet)),
             ("MORPH", flag(morph)),
             ("BLEND", flag(blend)),
             ("DETAIL", flag(self.detail_on)),
@@ -1352,27 +1435,35 @@ impl PipelineParts {
 
     /// The clipmap's three variants (plain, blend band, morphing levels) drawn by vertex entry
     /// `vs`: `vs_main` from the ring vertex buffer, `vs_main_wire` (the wireframe overlay)
-    /// pulling its indices; `cut` leaves a planar method's square out.
+    /// pulling its indices; `cut` leaves a planar method's square out. With water, `vs_main`'s
+    /// also without the water's shading (the water cull's indirect draws).
     fn clipmap_variants(
         &self,
         device: &wgpu::Device,
         look: LookSettings,
         vs: &str,
         cut: bool,
-    ) -> [wgpu::RenderPipeline; 3] {
-        [(false, false), (false, true), (true, true)].map(|(morph, blend)| {
-            let c = self.constants(look, morph, blend, cut);
-            let label = format!("terrain {vs} (morph {morph}, blend {blend}, cut {cut})");
-            self.pipeline(
-                device,
-                &label,
-                vs,
-                "fs_main",
-                &c,
-                vs == "vs_main",
-                Some(wgpu::Face::Back),
-            )
-        })
+    ) -> ClipmapPipelines {
+        let build = |wet: bool| {
+            [(false, false), (false, true), (true, true)].map(|(morph, blend)| {
+                let c = self.constants(look, morph, blend, cut, wet);
+                let label =
+                    format!("terrain {vs} (morph {morph}, blend {blend}, cut {cut}, wet {wet})");
+                self.pipeline(
+                    device,
+                    &label,
+                    vs,
+                    "fs_main",
+                    &c,
+                    vs == "vs_main",
+                    Some(wgpu::Face::Back),
+                )
+            })
+        };
+        ClipmapPipelines {
+            wet: build(true),
+            dry: (self.water_on && vs == "vs_main").then(|| build(false)),
+        }
     }
 
     /// Geomipmapping's pipeline with vertex entry `vs` (`vs_geomip`, or `vs_geomip_wire` for
@@ -1385,7 +1476,7 @@ impl PipelineParts {
         geomorph: bool,
         vs: &str,
     ) -> wgpu::RenderPipeline {
-        let mut c = self.constants(look, false, true, false);
+        let mut c = self.constants(look, false, true, false, true);
         c.push(("GEOMORPH", if geomorph { 1.0 } else { 0.0 }));
         self.pipeline(
             device,
@@ -1408,7 +1499,7 @@ impl PipelineParts {
         vs: &str,
         fs: &str,
     ) -> wgpu::RenderPipeline {
-        let mut c = self.constants(look, false, true, false);
+        let mut c = self.constants(look, false, true, false, true);
         c.push(("GRID", 1.0));
         self.pipeline(
             device,
@@ -1463,7 +1554,7 @@ impl PipelineParts {
         &self,
         device: &wgpu::Device,
         look: LookSettings,
-    ) -> ([wgpu::RenderPipeline; 3], wgpu::RenderPipeline) {
+    ) -> (ClipmapPipelines, wgpu::RenderPipeline) {
         let pipelines = self.clipmap_variants(device, look, "vs_main", false);
         let passthrough = self.pipeline(
             device,
