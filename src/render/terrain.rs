@@ -743,19 +743,35 @@ impl TerrainRenderer {
     }
 
     /// The lowest height in level `level`'s normal texture (the w the fragments compare with
-    /// the water level), read back: the water cull's input. None for a level never filled.
+    /// the water level) over the blocks `b` touches (`render::water_cull::in_box_blocks`),
+    /// read back: the water cull's input, for its tests. None for a level never filled.
     pub fn read_level_lowest_m(
         &self,
         ctx: &super::GpuContext,
         level: u32,
+        b: [u32; 4],
     ) -> Result<Option<f32>, RenderError> {
         let Some(grid) = self.grids.get(level as usize).copied().flatten() else {
             return Ok(None);
         };
         let texels = self.read_layer(ctx, &self.normals, &grid, 8)?;
-        Ok(Some(texels.iter().fold(f32::INFINITY, |lo, b| {
-            lo.min(f16_to_f32(u16::from_le_bytes([b[6], b[7]])))
-        })))
+        let s = grid.size as i64;
+        let mut lo = f32::INFINITY;
+        for (k, t) in texels.iter().enumerate() {
+            // Grid order back to the texture's slots.
+            let (i, j) = (k as i64 % s, k as i64 / s);
+            let x = (grid.gx0 + i).rem_euclid(s) as u32;
+            let y = (grid.gy0 + j).rem_euclid(s) as u32;
+            if super::water_cull::in_box_blocks(b, x, y, grid.size) {
+                lo = lo.min(f16_to_f32(u16::from_le_bytes([t[6], t[7]])));
+            }
+        }
+        Ok(Some(lo))
+    }
+
+    /// The water cull's boxes of the last frame (`render::water_cull::level_boxes`).
+    pub fn water_cull_boxes(&self) -> Option<&[[u32; 4]]> {
+        self.water_cull.as_ref().map(|c| c.boxes())
     }
 
     /// The water cull's choice for each draw range of the last frame prepared: true where the
@@ -1107,13 +1123,18 @@ impl TerrainRenderer {
             let entries: Vec<u32> = (clipmap.draw.levels.iter().zip(&clipmap.draw.variants))
                 .map(|(&l, &v)| super::water_cull::draw_entry(l, v != Variant::Plain))
                 .collect();
+            let boxes =
+                super::water_cull::level_boxes(&self.grids, view.phi_v_rad, view.theta_v_rad);
             cull.encode(
                 queue,
                 encoder,
-                &normals_written,
-                &clipmap.draw.ranges,
-                &entries,
-                look.water_level_m,
+                super::water_cull::CullFrame {
+                    written: &normals_written,
+                    ranges: &clipmap.draw.ranges,
+                    entries,
+                    boxes,
+                    water_level_m: look.water_level_m,
+                },
             );
         }
 

@@ -17,6 +17,8 @@
 
 use wgpu::util::DeviceExt;
 
+use crate::clipmap::levels::LevelGrid;
+
 use super::gpu_data::WaterCullParams;
 use super::normals::SlotRect;
 
@@ -34,11 +36,84 @@ pub fn dry_from_m(water_level_m: f32) -> f32 {
     water_level_m + water_level_m.abs() / 128.0
 }
 
-/// Rust twin of `cs_draws`: whether a draw of `level` shows no water, given each level's lowest
-/// texel height; `blends`: its pipeline reads the next coarser level too (the blend band).
-pub fn dry(level_min_m: &[f32], level: usize, blends: bool, water_level_m: f32) -> bool {
+/// Rust twin of `cs_draws`: whether a draw of `level` shows no water, given the lowest texel
+/// height within its reach in its own texture and in the next coarser one's; `blends`: its
+/// pipeline reads the coarser level too (the blend band).
+pub fn dry(
+    own_min_m: f32,
+    coarse_min_m: f32,
+    level: u32,
+    blends: bool,
+    water_level_m: f32,
+) -> bool {
     let at = dry_from_m(water_level_m);
-    level_min_m[level] >= at && (!blends || level == 0 || level_min_m[level - 1] >= at)
+    own_min_m >= at && (!blends || level == 0 || coarse_min_m >= at)
+}
+
+/// How far from the viewer level `level`'s fragments lie in map offsets (|Δφ|, |Δθ|): its rings
+/// lie within θ̃ = π·2^−l of the viewer (spherical-clipmaps.md §3.4), so |Δθ| ≤ θ̃ (the
+/// triangle inequality) and, where that cap holds no pole, |Δφ| ≤ asin(sin θ̃ / sin θv), the
+/// widest longitude span of a cap; one holding a pole spans every longitude.
+pub fn reach_rad(level: u32, theta_v_rad: f64) -> (f64, f64) {
+    let outer = crate::clipmap::settings::level_outer_theta_rad(level);
+    let dphi = if theta_v_rad > outer && std::f64::consts::PI - theta_v_rad > outer {
+        (outer.sin() / theta_v_rad.sin()).min(1.0).asin()
+    } else {
+        std::f64::consts::PI
+    };
+    (dphi, outer)
+}
+
+/// The texels of `grid`'s texture a fragment within `reach` (|Δφ|, |Δθ|) of the viewer may read
+/// through the bilinear filter: a toroidal box [x0, y0, width, height] around the viewer's
+/// texel. Padded by 2 % and 2 texels beyond the filter's one: the GPU's offsets are f32 (and
+/// approximated on the finest levels, spherical-clipmaps.md eq. 9).
+pub fn read_box(grid: &LevelGrid, phi_v_rad: f64, theta_v_rad: f64, reach: (f64, f64)) -> [u32; 4] {
+    let s = grid.size as f64;
+    let (gx, gy) = grid.viewer_texel(phi_v_rad, theta_v_rad);
+    let span = |centre: f64, half_texels: f64| {
+        let half = half_texels * 1.02 + 3.0;
+        if 2.0 * half + 1.0 >= s {
+            return (0, grid.size);
+        }
+        let lo = (centre - half).floor();
+        let width = (centre + half).floor() - lo + 1.0;
+        (lo.rem_euclid(s) as u32, width as u32)
+    };
+    let (x0, width) = span(gx, reach.0 / grid.dphi_rad);
+    let (y0, height) = span(gy, reach.1 / grid.dtheta_rad);
+    [x0, y0, width, height]
+}
+
+/// The boxes `cs_draws` reads per level (2 × MAX_LEVELS): level l's own texels within its
+/// reach, then level l − 1's at the same offsets; a level not held reads its whole texture.
+pub fn level_boxes(grids: &[Option<LevelGrid>], phi_v_rad: f64, theta_v_rad: f64) -> Vec<[u32; 4]> {
+    let mut boxes = vec![[0, 0, u32::MAX, u32::MAX]; 2 * super::shader::MAX_LEVELS as usize];
+    for (l, grid) in grids.iter().enumerate() {
+        let reach = reach_rad(l as u32, theta_v_rad);
+        if let Some(g) = grid {
+            boxes[2 * l] = read_box(g, phi_v_rad, theta_v_rad, reach);
+        }
+        if let Some(Some(coarse)) = l.checked_sub(1).map(|c| grids[c]) {
+            boxes[2 * l + 1] = read_box(&coarse, phi_v_rad, theta_v_rad, reach);
+        }
+    }
+    boxes
+}
+
+/// Whether texel (x, y) of a `size`² texture lies in a block that `b` touches (what `box_min`
+/// reads): the Rust side of the twin.
+pub fn in_box_blocks(b: [u32; 4], x: u32, y: u32, size: u32) -> bool {
+    let inside = |start: u32, len: u32, t: u32| {
+        if len >= size {
+            return true;
+        }
+        let first = start / BLOCK;
+        let count = (start + len - 1) / BLOCK - first + 1;
+        let per_row = size / BLOCK;
+        (t / BLOCK + per_row - first) % per_row < count.min(per_row)
+    };
+    inside(b[0], b[2], x) && inside(b[1], b[3], y)
 }
 
 /// A draw's entry in the cull's level list: its level, and whether its pipeline blends.
@@ -82,6 +157,19 @@ pub fn touched_blocks(rects: &[SlotRect], texture_size: u32) -> Vec<u32> {
     out
 }
 
+/// What the cull needs of a frame.
+pub struct CullFrame<'a> {
+    /// The normal pass's rectangles: their blocks' minima are redone.
+    pub written: &'a [SlotRect],
+    /// The draw ranges and, per range, its [`draw_entry`].
+    pub ranges: &'a [std::ops::Range<u32>],
+    pub entries: Vec<u32>,
+    /// What each level's fragments may read ([`level_boxes`]).
+    pub boxes: Vec<[u32; 4]>,
+    /// As the terrain pass's look has it (f32).
+    pub water_level_m: f32,
+}
+
 /// The cull's buffers and pipelines.
 pub struct WaterCull {
     /// Kept to grow the per-draw buffers when a frame has more ranges than they hold.
@@ -97,6 +185,9 @@ pub struct WaterCull {
     jobs: wgpu::Buffer,
     draw_levels: wgpu::Buffer,
     args: wgpu::Buffer,
+    /// Per level, what its fragments may read ([`level_boxes`]), and the last frame's.
+    boxes: wgpu::Buffer,
+    last_boxes: Vec<[u32; 4]>,
     bind_group: wgpu::BindGroup,
     /// Ranges of the last frame encoded.
     draws: u32,
@@ -153,6 +244,7 @@ impl WaterCull {
                 storage(3, true),
                 storage(4, true),
                 storage(5, false),
+                storage(6, true),
             ],
         });
         let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
@@ -207,15 +299,17 @@ impl WaterCull {
             4 * ARGS_WORDS * 2 * 256,
             wgpu::BufferUsages::INDIRECT | wgpu::BufferUsages::COPY_SRC,
         );
+        let boxes = storage_buffer(
+            "water cull level boxes",
+            16 * 2 * super::shader::MAX_LEVELS as u64,
+            wgpu::BufferUsages::empty(),
+        );
         let bind_group = Self::bind(
             device,
             &layout,
             &params,
             normals,
-            &block_min,
-            &jobs,
-            &draw_levels,
-            &args,
+            [&block_min, &jobs, &draw_levels, &args, &boxes],
         );
         Self {
             device: device.clone(),
@@ -229,22 +323,23 @@ impl WaterCull {
             jobs,
             draw_levels,
             args,
+            boxes,
+            last_boxes: Vec::new(),
             bind_group,
             draws: 0,
         }
     }
 
-    #[allow(clippy::too_many_arguments)]
+    /// The bind group; `storage`: block minima, jobs, draw levels, arguments, boxes
+    /// (bindings 2–6).
     fn bind(
         device: &wgpu::Device,
         layout: &wgpu::BindGroupLayout,
         params: &wgpu::Buffer,
         normals: &wgpu::TextureView,
-        block_min: &wgpu::Buffer,
-        jobs: &wgpu::Buffer,
-        draw_levels: &wgpu::Buffer,
-        args: &wgpu::Buffer,
+        storage: [&wgpu::Buffer; 5],
     ) -> wgpu::BindGroup {
+        let [block_min, jobs, draw_levels, args, boxes] = storage;
         fn buffer(binding: u32, b: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
             wgpu::BindGroupEntry {
                 binding,
@@ -264,23 +359,27 @@ impl WaterCull {
                 buffer(3, jobs),
                 buffer(4, draw_levels),
                 buffer(5, args),
+                buffer(6, boxes),
             ],
         })
     }
 
-    /// Records the cull for a frame: the blocks of `written` (the normal pass's rectangles)
-    /// get their minima, then the draws of `ranges` (each with its [`draw_entry`] in
-    /// `entries`) their instance counts: argument block 2i is the dry pipeline's draw of range
-    /// i, 2i + 1 the water's.
+    /// Records the cull for a frame: the blocks the normal pass wrote get their minima, then
+    /// the frame's draws their instance counts: argument block 2i is the dry pipeline's draw
+    /// of range i, 2i + 1 the water's.
     pub fn encode(
         &mut self,
         queue: &wgpu::Queue,
         encoder: &mut wgpu::CommandEncoder,
-        written: &[SlotRect],
-        ranges: &[std::ops::Range<u32>],
-        entries: &[u32],
-        water_level_m: f32,
+        frame: CullFrame<'_>,
     ) {
+        let CullFrame {
+            written,
+            ranges,
+            entries,
+            boxes,
+            water_level_m,
+        } = frame;
         let jobs = touched_blocks(written, self.texture_size);
         let draws = ranges.len() as u64;
         let need_args = 4 * ARGS_WORDS * 2 * draws;
@@ -307,10 +406,13 @@ impl WaterCull {
                 &self.layout,
                 &self.params,
                 &self.normals,
-                &self.block_min,
-                &self.jobs,
-                &self.draw_levels,
-                &self.args,
+                [
+                    &self.block_min,
+                    &self.jobs,
+                    &self.draw_levels,
+                    &self.args,
+                    &self.boxes,
+                ],
             );
         }
         let params = WaterCullParams {
@@ -322,12 +424,14 @@ impl WaterCull {
             ..Default::default()
         };
         queue.write_buffer(&self.params, 0, bytemuck::bytes_of(&params));
+        queue.write_buffer(&self.boxes, 0, bytemuck::cast_slice(&boxes));
+        self.last_boxes = boxes;
         self.draws = draws as u32;
         if !jobs.is_empty() {
             queue.write_buffer(&self.jobs, 0, bytemuck::cast_slice(&jobs));
         }
         if draws > 0 {
-            queue.write_buffer(&self.draw_levels, 0, bytemuck::cast_slice(entries));
+            queue.write_buffer(&self.draw_levels, 0, bytemuck::cast_slice(&entries));
             // Both draws of a range start with no instance; the cull gives one of them one.
             let args: Vec<u32> = ranges
                 .iter()
@@ -387,6 +491,11 @@ impl WaterCull {
                 dry == 1
             })
             .collect())
+    }
+
+    /// The last frame's [`level_boxes`].
+    pub fn boxes(&self) -> &[[u32; 4]] {
+        &self.last_boxes
     }
 
     /// The indirect arguments of the frame's draws (block 2i: range i without the water's
