@@ -144,6 +144,10 @@ override CUT: bool = false;
 override GEOMORPH: bool = true;
 // The projected grid's pipelines (planar.wgsl): its fragments' Δφ fix-up and cell overlay.
 override GRID: bool = false;
+// The overlays (render::gpu_data::Overlays): the level overlay's tint and the wireframe's edges
+// (its pipelines alone; bary is (1, 1, 1) in the others).
+override LEVEL_OVERLAY: bool = false;
+override WIRE_OVERLAY: bool = false;
 
 @group(0) @binding(0) var<uniform> frame: FrameUniforms;
 @group(0) @binding(1) var<uniform> levels: array<LevelUniforms, MAX_LEVELS>;
@@ -744,7 +748,7 @@ fn shade(in_: VertexOut, rel_d: vec3<f32>) -> vec4<f32> {
     if SKY {
         colour = tone_map(colour * in.view_t + in.inscatter);
     }
-    if (frame.overlay & OVERLAY_LEVELS) != 0u {
+    if LEVEL_OVERLAY {
         var tint = level_colour(in.tag);
         if GRID && in.tag >= GRID_TAG {
             // Projected-grid cells by their normalised error (eq. 4): 0 green, → 1 red.
@@ -757,7 +761,7 @@ fn shade(in_: VertexOut, rel_d: vec3<f32>) -> vec4<f32> {
         }
         colour = mix(colour, tint * (0.35 + 0.65 * lambert), 0.6);
     }
-    if (frame.overlay & OVERLAY_WIREFRAME) != 0u {
+    if WIRE_OVERLAY {
         let edge = 1.0 - smoothstep(0.5, 1.5, min(bary_px.x, min(bary_px.y, bary_px.z)));
         colour = mix(colour, vec3<f32>(0.02, 0.02, 0.03), edge);
     }

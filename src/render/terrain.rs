@@ -526,12 +526,14 @@ impl TerrainRenderer {
             immediate_size: 0,
         });
         let pipeline_parts = PipelineParts {
+            device: device.clone(),
             module,
             layout: pipeline_layout,
             color_format,
             detail_on: terrain.detail().is_some(),
             water_on: terrain.water_level_m().is_some(),
             form: settings.transform.shader_code(),
+            level_overlay: false,
         };
         let look = LookSettings::default();
         let (pipelines, passthrough) = pipeline_parts.build(device, look);
@@ -971,6 +973,11 @@ impl TerrainRenderer {
         // From the tiles at hand when streaming: a frame never waits for the file (a read of
         // it from in here is counted: `dem::frame_reads`).
         let _frame = crate::dem::frame_reads::frame_scope();
+        if self.overlays.levels != self.pipeline_parts.level_overlay {
+            self.pipeline_parts.level_overlay = self.overlays.levels;
+            let device = self.pipeline_parts.device.clone();
+            self.rebuild_pipelines(&device);
+        }
         let view = ViewPlan::new(camera, width_px, height_px, self.query());
         // At rest (the same camera twice), levels take their ideal φ spans: what is drawn then
         // does not depend on where the camera came from.
@@ -1168,26 +1175,33 @@ impl TerrainRenderer {
     pub fn set_look(&mut self, device: &wgpu::Device, look: LookSettings) {
         let compiled = |l: LookSettings| (l.textures, l.sky);
         if compiled(look) != compiled(self.look) {
-            (self.pipelines, self.passthrough) = self.pipeline_parts.build(device, look);
-            if self.planar_pipelines.is_some() {
-                self.planar_pipelines = Some(self.pipeline_parts.build_planar(
-                    device,
-                    look,
-                    self.lod.geomip.geomorph,
-                ));
-            }
-            if self.wire_pipelines.is_some() {
-                self.wire_pipelines = Some(self.pipeline_parts.build_wire(
-                    device,
-                    look,
-                    self.lod.geomip.geomorph,
-                ));
-            }
-            self.grid_pipelines = None;
             self.look = look;
-            self.build_grid_pipelines(device);
+            self.rebuild_pipelines(device);
         }
         self.look = look;
+    }
+
+    /// Rebuilds every pipeline built so far from the current look and overlays (they are
+    /// pipeline constants).
+    fn rebuild_pipelines(&mut self, device: &wgpu::Device) {
+        let look = self.look;
+        (self.pipelines, self.passthrough) = self.pipeline_parts.build(device, look);
+        if self.planar_pipelines.is_some() {
+            self.planar_pipelines = Some(self.pipeline_parts.build_planar(
+                device,
+                look,
+                self.lod.geomip.geomorph,
+            ));
+        }
+        if self.wire_pipelines.is_some() {
+            self.wire_pipelines = Some(self.pipeline_parts.build_wire(
+                device,
+                look,
+                self.lod.geomip.geomorph,
+            ));
+        }
+        self.grid_pipelines = None;
+        self.build_grid_pipelines(device);
     }
 
     /// Where the frame plan's terrain questions are answered: the streamed tiles for a DEM,
@@ -1358,6 +1372,8 @@ impl TerrainRenderer {
 
 /// What the terrain pipelines are built from, kept to rebuild them when the look changes.
 struct PipelineParts {
+    /// Kept to rebuild the pipelines when the level overlay is switched (`prepare`).
+    device: wgpu::Device,
     module: wgpu::ShaderModule,
     layout: wgpu::PipelineLayout,
     color_format: wgpu::TextureFormat,
@@ -1365,6 +1381,9 @@ struct PipelineParts {
     /// The terrain has water (its geometry rule and its shading).
     water_on: bool,
     form: u32,
+    /// The level overlay (`Overlays::levels`) the pipelines were built with: its code is
+    /// compiled in only while it is on (a CPU rasteriser runs a branch no fragment takes).
+    level_overlay: bool,
 }
 
 impl PipelineParts {
@@ -1439,10 +1458,13 @@ impl PipelineParts {
         blend: bool,
         cut: bool,
         wet: bool,
+        wire: bool,
     ) -> Vec<(&'static str, f64)> {
         let flag = |on: bool| if on { 1.0 } else { 0.0 };
         vec![
             ("WET", flag(wet)),
+            ("LEVEL_OVERLAY", flag(self.level_overlay)),
+            ("WIRE_OVERLAY", flag(wire)),
             ("MORPH", flag(morph)),
             ("BLEND", flag(blend)),
             ("DETAIL", flag(self.detail_on)),
@@ -1467,7 +1489,7 @@ impl PipelineParts {
     ) -> ClipmapPipelines {
         let build = |wet: bool| {
             [(false, false), (false, true), (true, true)].map(|(morph, blend)| {
-                let c = self.constants(look, morph, blend, cut, wet);
+                let c = self.constants(look, morph, blend, cut, wet, vs.ends_with("_wire"));
                 let label =
                     format!("terrain {vs} (morph {morph}, blend {blend}, cut {cut}, wet {wet})");
                 self.pipeline(
@@ -1497,7 +1519,7 @@ impl PipelineParts {
         geomorph: bool,
         vs: &str,
     ) -> wgpu::RenderPipeline {
-        let mut c = self.constants(look, false, true, false, true);
+        let mut c = self.constants(look, false, true, false, true, vs.ends_with("_wire"));
         c.push(("GEOMORPH", if geomorph { 1.0 } else { 0.0 }));
         self.pipeline(
             device,
@@ -1520,7 +1542,7 @@ impl PipelineParts {
         vs: &str,
         fs: &str,
     ) -> wgpu::RenderPipeline {
-        let mut c = self.constants(look, false, true, false, true);
+        let mut c = self.constants(look, false, true, false, true, vs.ends_with("_wire"));
         c.push(("GRID", 1.0));
         self.pipeline(
             device,
