@@ -422,7 +422,7 @@ impl TerrainRenderer {
                 texture_entry(2, both, false),
                 texture_entry(3, both, false),
                 uniform_entry(4),
-                storage_entry(5, fragment),
+                storage_entry(5, wgpu::ShaderStages::VERTEX),
                 texture_entry(6, fragment, true),
                 wgpu::BindGroupLayoutEntry {
                     binding: 7,
