@@ -335,6 +335,11 @@ fn shaders_call_no_builtin_trig_where_precision_matters() {
         ("fill_analytic.wgsl", globe::render::shader::FILL_ANALYTIC),
         ("fill_dem.wgsl", globe::render::shader::FILL_DEM),
         ("fill_normals.wgsl", globe::render::shader::FILL_NORMALS),
+        ("sky.wgsl", globe::render::shader::SKY),
+        (
+            "common/look.wgsl",
+            include_str!("../shaders/common/look.wgsl"),
+        ),
         (
             "common/trig.wgsl",
             include_str!("../shaders/common/trig.wgsl"),

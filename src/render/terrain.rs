@@ -153,6 +153,8 @@ pub struct TerrainRenderer {
     last_camera: Option<Camera>,
     /// Debug/benchmark: draw with the pass-through pipeline instead of the terrain's.
     pub use_passthrough: bool,
+    /// Tests: integrate the sky per pixel even where the sky-view table would serve.
+    pub sky_per_pixel: bool,
     /// Tests: draw every range with the water's shading, as before the water cull (which
     /// still runs; only the draws ignore it).
     pub ignore_water_cull: bool,
@@ -583,6 +585,7 @@ impl TerrainRenderer {
             last_camera: None,
             use_passthrough: false,
             ignore_water_cull: false,
+            sky_per_pixel: false,
             naive_bump: false,
             fill_timestamps: None,
             fill,
@@ -769,6 +772,11 @@ impl TerrainRenderer {
             }
         }
         Ok(Some(lo))
+    }
+
+    /// Whether the last frame's sky came from the sky-view table (`render::look`).
+    pub fn sky_from_table(&self) -> bool {
+        self.look_resources.sky_from_table()
     }
 
     /// The water cull's boxes of the last frame (`render::water_cull::level_boxes`).
@@ -1126,6 +1134,10 @@ impl TerrainRenderer {
             self.look_time_s,
         );
         queue.write_buffer(&self.look_resources.uniforms, 0, bytemuck::bytes_of(&look));
+        // The sky from its table wherever the eye is inside the atmosphere (render::look).
+        let inside = look.eye_radius_m < look.shell[1];
+        self.look_resources
+            .prepare_sky(encoder, self.look.sky && inside && !self.sky_per_pixel);
         if let Some(cull) = &mut self.water_cull {
             let entries: Vec<u32> = (clipmap.draw.levels.iter().zip(&clipmap.draw.variants))
                 .map(|(&l, &v)| super::water_cull::draw_entry(l, v != Variant::Plain))

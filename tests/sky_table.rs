@@ -1,0 +1,75 @@
+//! The sky-view table (`render::look`, `shaders/sky.wgsl`): with the eye inside the atmosphere
+//! the sky pass reads one filtered texel of a per-frame table instead of integrating each
+//! pixel's ray. It must look the same: every pixel within 2/255 of the per-pixel sky, the
+//! sun's disk and its glow included; from space the per-pixel integral stays.
+
+mod common;
+
+use globe::look::{LookSettings, SEA_LEVEL_M};
+use globe::render::TerrainRenderer;
+use globe::scenes::{CameraSpec, Scene};
+use globe::terrain::Terrain;
+
+const WIDTH_PX: u32 = 320;
+const HEIGHT_PX: u32 = 180;
+
+fn renderer(ctx: &globe::render::GpuContext, per_pixel: bool) -> TerrainRenderer {
+    let terrain = Terrain::embedded_earth()
+        .expect("embedded Earth")
+        .with_water_level(Some(SEA_LEVEL_M));
+    let mut r = TerrainRenderer::new(
+        &ctx.device,
+        globe::clipmap::settings::ClipmapSettings::default(),
+        terrain,
+        globe::render::offscreen::COLOR_FORMAT,
+    )
+    .unwrap();
+    r.set_look(&ctx.device, LookSettings::default());
+    r.sky_per_pixel = per_pixel;
+    r
+}
+
+#[test]
+fn the_table_sky_matches_the_per_pixel_sky() {
+    let Some((ctx, _guard)) = common::gpu() else {
+        return;
+    };
+    let radius = globe::geo::EARTH_RADIUS_M;
+    // Two named scenes and a view into the sun (35° up in the south-east) from 2 km.
+    let views = [
+        ("aircraft", None),
+        ("ground", None),
+        ("space", None),
+        ("toward the sun", Some("45.6,10.6,2000,135,30")),
+    ];
+    for (name, spec) in views {
+        let mut table = renderer(ctx, false);
+        let camera = match spec {
+            Some(text) => CameraSpec::parse(text, radius)
+                .unwrap()
+                .camera(|lat, lon| table.terrain_height_m(lat, lon)),
+            None => Scene::by_name(name)
+                .unwrap()
+                .camera(|lat, lon| table.terrain_height_m(lat, lon)),
+        };
+        let a = common::render(ctx, &mut table, &camera, WIDTH_PX, HEIGHT_PX);
+        let from_table = table.sky_from_table();
+        let mut per_pixel = renderer(ctx, true);
+        let b = common::render(ctx, &mut per_pixel, &camera, WIDTH_PX, HEIGHT_PX);
+        assert!(!per_pixel.sky_from_table());
+        // Inside the atmosphere the table serves; from space every pixel integrates.
+        assert_eq!(from_table, name != "space", "{name}: sky from the table");
+        let diffs: Vec<u8> = a
+            .rgba
+            .chunks(4)
+            .zip(b.rgba.chunks(4))
+            .map(|(p, q)| (0..3).map(|c| p[c].abs_diff(q[c])).max().unwrap())
+            .collect();
+        let max = diffs.iter().copied().max().unwrap();
+        let mean = diffs.iter().map(|&d| d as f64).sum::<f64>() / diffs.len() as f64;
+        let differing = diffs.iter().filter(|&&d| d > 0).count();
+        println!("{name}: {differing} pixels differ, by at most {max}/255, mean {mean:.4}/255");
+        assert!(max <= 2, "{name}: a pixel differs by {max}/255");
+        assert!(mean <= 0.25, "{name}: mean difference {mean}/255");
+    }
+}
