@@ -5,26 +5,15 @@
 
 mod common;
 
-use globe::look::{LookSettings, SEA_LEVEL_M};
 use globe::render::TerrainRenderer;
 use globe::scenes::{CameraSpec, Scene};
-use globe::terrain::Terrain;
 
 const WIDTH_PX: u32 = 320;
 const HEIGHT_PX: u32 = 180;
 
+/// The full look without the detail; `per_pixel`: the sky integrated per pixel throughout.
 fn renderer(ctx: &globe::render::GpuContext, per_pixel: bool) -> TerrainRenderer {
-    let terrain = Terrain::embedded_earth()
-        .expect("embedded Earth")
-        .with_water_level(Some(SEA_LEVEL_M));
-    let mut r = TerrainRenderer::new(
-        &ctx.device,
-        globe::clipmap::settings::ClipmapSettings::default(),
-        terrain,
-        globe::render::offscreen::COLOR_FORMAT,
-    )
-    .unwrap();
-    r.set_look(&ctx.device, LookSettings::default());
+    let mut r = common::full_look_renderer(ctx, false);
     r.sky_per_pixel = per_pixel;
     r
 }

@@ -5,31 +5,16 @@
 
 mod common;
 
-use globe::look::{LookSettings, SEA_LEVEL_M};
+use globe::look::SEA_LEVEL_M;
 use globe::render::TerrainRenderer;
 use globe::render::water_cull;
 use globe::scenes::Scene;
-use globe::terrain::Terrain;
 
 const WIDTH_PX: u32 = 320;
 const HEIGHT_PX: u32 = 180;
 
-/// A fresh renderer over the embedded Earth with water, the full look and, if `detail`, the
-/// procedural detail.
 fn renderer(ctx: &globe::render::GpuContext, detail: bool) -> TerrainRenderer {
-    let terrain = Terrain::embedded_earth()
-        .expect("embedded Earth")
-        .with_detail(detail.then(globe::procedural::DetailParams::default))
-        .with_water_level(Some(SEA_LEVEL_M));
-    let mut r = TerrainRenderer::new(
-        &ctx.device,
-        globe::clipmap::settings::ClipmapSettings::default(),
-        terrain,
-        globe::render::offscreen::COLOR_FORMAT,
-    )
-    .unwrap();
-    r.set_look(&ctx.device, LookSettings::default());
-    r
+    common::full_look_renderer(ctx, detail)
 }
 
 #[test]

@@ -178,3 +178,21 @@ pub fn all_tile_keys(p: &globe::dem::pyramid::Pyramid) -> Vec<globe::stream::Til
     }
     keys
 }
+
+/// A fresh renderer over the embedded Earth with water at sea level, the full look and, if
+/// `detail`, the default procedural detail.
+pub fn full_look_renderer(ctx: &GpuContext, detail: bool) -> TerrainRenderer {
+    let terrain = globe::terrain::Terrain::embedded_earth()
+        .expect("embedded Earth")
+        .with_detail(detail.then(globe::procedural::DetailParams::default))
+        .with_water_level(Some(globe::look::SEA_LEVEL_M));
+    let mut r = TerrainRenderer::new(
+        &ctx.device,
+        globe::clipmap::settings::ClipmapSettings::default(),
+        terrain,
+        globe::render::offscreen::COLOR_FORMAT,
+    )
+    .unwrap();
+    r.set_look(&ctx.device, globe::look::LookSettings::default());
+    r
+}
