@@ -1324,13 +1324,14 @@ impl TerrainRenderer {
             (_, None) => uncut,
         };
         for (i, (range, &variant)) in info.draw.ranges.iter().zip(&info.draw.variants).enumerate() {
+            // The cut's ranges start with an empty one: switch pipelines there all the same.
+            if i == info.draw.first_cut {
+                current = None;
+            }
             if range.is_empty() {
                 continue;
             }
             let clipmap = if i >= info.draw.first_cut { cut } else { uncut };
-            if i == info.draw.first_cut {
-                current = None;
-            }
             let v = match variant {
                 Variant::Plain => 0,
                 Variant::Blend => 1,
