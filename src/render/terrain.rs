@@ -1324,14 +1324,12 @@ impl TerrainRenderer {
             (_, None) => uncut,
         };
         for (i, (range, &variant)) in info.draw.ranges.iter().zip(&info.draw.variants).enumerate() {
-            // The cut's ranges start with an empty one: switch pipelines there all the same.
-            if i == info.draw.first_cut {
-                current = None;
-            }
             if range.is_empty() {
                 continue;
             }
-            let clipmap = if i >= info.draw.first_cut { cut } else { uncut };
+            // The pipeline set by (cut, variant): a range of the cut never reuses an uncut one.
+            let in_cut = i >= info.draw.first_cut;
+            let clipmap = if in_cut { cut } else { uncut };
             let v = match variant {
                 Variant::Plain => 0,
                 Variant::Blend => 1,
@@ -1343,16 +1341,16 @@ impl TerrainRenderer {
                 pass.draw_indexed_indirect(cull.args(), WaterCull::offset(i, false));
                 pass.set_pipeline(&clipmap.wet[v]);
                 pass.draw_indexed_indirect(cull.args(), WaterCull::offset(i, true));
-                current = Some(variant);
+                current = Some((in_cut, variant));
                 continue;
             }
-            if current != Some(variant) {
+            if current != Some((in_cut, variant)) {
                 pass.set_pipeline(if self.use_passthrough {
                     &self.passthrough
                 } else {
                     &clipmap.wet[v]
                 });
-                current = Some(variant);
+                current = Some((in_cut, variant));
             }
             if wire.is_some() {
                 pass.draw(range.clone(), 0..1);
