@@ -295,7 +295,17 @@ fn mesh_index(level: u32, j: u32, t: u32) -> u32 {
 
 @vertex
 fn vs_main(v: RingVertex, @builtin(vertex_index) index: u32) -> VertexOut {
-    return ring_vertex(v, index);
+    return with_plane_coords(ring_vertex(v, index));
+}
+
+// A planar method's plane coordinates of a clipmap vertex, in the pipelines that cut its square
+// out (kept out of ring_vertex, so that the vertex pre-pass needs no planar bindings).
+fn with_plane_coords(v: VertexOut) -> VertexOut {
+    var out = v;
+    if CUT {
+        out.plane_xy = plane_coords(out.p_tilde);
+    }
+    return out;
 }
 
 // Barycentric corner of the i-th vertex of a triangle list.
@@ -317,7 +327,7 @@ fn vs_main_wire(@builtin(vertex_index) i: u32) -> VertexOut {
     v.ring_t = m.ring_t;
     v.level = m.level;
     v.seam_side = m.seam_side;
-    var out = ring_vertex(v, index);
+    var out = with_plane_coords(ring_vertex(v, index));
     out.bary = corner_bary(i);
     return out;
 }
@@ -388,9 +398,6 @@ fn ring_vertex(v: RingVertex, index: u32) -> VertexOut {
     var out = placed_vertex(p, one_minus_cos, at.h, at.d, at.blend, v.level);
     out.tag = v.level;
     out.plane_xy = vec2<f32>(3.0e38);
-    if CUT {
-        out.plane_xy = plane_coords(p);
-    }
     return out;
 }
 
@@ -427,6 +434,107 @@ fn placed_vertex(p: vec3<f32>, one_minus_cos: f32, h: f32, d: vec2<f32>, blend: 
         out.view_t = s.transmittance;
         out.sun_t = sun_transmittance(eye + rel, look.sun.xyz);
     }
+    return out;
+}
+
+// The vertex pre-pass (render::placement). A CPU rasteriser places vertices on one thread and
+// again for every triangle its small vertex cache misses; here each vertex a frame's draws use
+// is placed once, on every core, by ring_vertex itself. The draws then read the result as
+// their vertex buffer (vs_placed). Rust twin: render::gpu_data::PlacedVertex.
+struct PlacedVertex {
+    clip: vec4<f32>,
+    // Δφ, Δθ, coarse blend, bump σ.
+    map_blend: vec4<f32>,
+    // p̃ and the level (as f32: exact).
+    p_level: vec4<f32>,
+    // Position relative to the eye (m); w unused.
+    rel: vec4<f32>,
+    // The haze (SKY only): in-scattered light, the segment's and the sunlight's transmittance.
+    inscatter: vec4<f32>,
+    view_t: vec4<f32>,
+    sun_t: vec4<f32>,
+}
+
+// Written by cs_place only (the draws bind the same buffer as a vertex buffer).
+@group(2) @binding(0) var<storage, read_write> placed_out: array<PlacedVertex>;
+// Mesh vertex ids to place, padded with PLACE_NONE to whole workgroups.
+@group(2) @binding(1) var<storage, read> place_work: array<u32>;
+
+const PLACE_NONE: u32 = 0xffffffffu;
+
+@compute @workgroup_size(64)
+fn cs_place(@builtin(global_invocation_id) id: vec3<u32>) {
+    let index = place_work[id.x];
+    if index == PLACE_NONE {
+        return;
+    }
+    let m = mesh[index];
+    var v: RingVertex;
+    v.p_tilde = m.p_tilde;
+    v.one_minus_cos = m.one_minus_cos;
+    v.theta_tilde_rad = m.theta_tilde_rad;
+    v.ring_t = m.ring_t;
+    v.level = m.level;
+    v.seam_side = m.seam_side;
+    let o = ring_vertex(v, index);
+    var q: PlacedVertex;
+    q.clip = o.clip;
+    q.map_blend = vec4<f32>(o.map_pos, o.coarse_blend, o.bump_sigma);
+    q.p_level = vec4<f32>(o.p_tilde, f32(o.level));
+    q.rel = vec4<f32>(o.rel, 0.0);
+    if SKY {
+        q.inscatter = vec4<f32>(o.inscatter, 0.0);
+        q.view_t = vec4<f32>(o.view_t, 0.0);
+        q.sun_t = vec4<f32>(o.sun_t, 0.0);
+    }
+    placed_out[index] = q;
+}
+
+// A placed vertex as the draw reads it (render::gpu_data::PLACED_VERTEX_ATTRIBUTES).
+struct PlacedIn {
+    @location(0) clip: vec4<f32>,
+    @location(1) map_blend: vec4<f32>,
+    @location(2) p_level: vec4<f32>,
+    @location(3) rel: vec4<f32>,
+}
+
+struct PlacedHaze {
+    @location(4) inscatter: vec4<f32>,
+    @location(5) view_t: vec4<f32>,
+    @location(6) sun_t: vec4<f32>,
+}
+
+fn unpack_placed(q: PlacedIn) -> VertexOut {
+    var out: VertexOut;
+    out.clip = q.clip;
+    out.map_pos = q.map_blend.xy;
+    out.coarse_blend = q.map_blend.z;
+    out.bump_sigma = q.map_blend.w;
+    out.p_tilde = q.p_level.xyz;
+    out.level = u32(q.p_level.w);
+    out.tag = out.level;
+    out.rel = q.rel.xyz;
+    out.bary = vec3<f32>(1.0);
+    out.inscatter = vec3<f32>(0.0);
+    out.view_t = vec3<f32>(1.0);
+    out.sun_t = vec3<f32>(1.0);
+    out.plane_xy = vec2<f32>(3.0e38);
+    return with_plane_coords(out);
+}
+
+// The clipmap's draws from the pre-pass, without the haze (look without sky)…
+@vertex
+fn vs_placed(q: PlacedIn) -> VertexOut {
+    return unpack_placed(q);
+}
+
+// …and with it.
+@vertex
+fn vs_placed_haze(q: PlacedIn, h: PlacedHaze) -> VertexOut {
+    var out = unpack_placed(q);
+    out.inscatter = h.inscatter.xyz;
+    out.view_t = h.view_t.xyz;
+    out.sun_t = h.sun_t.xyz;
     return out;
 }
 

@@ -73,6 +73,9 @@ pub struct BenchOptions {
     /// Also time the same frames with the plain look (`LookSettings::plain`: no surface
     /// types, no atmosphere), named scenes only: the look's cost as a ratio in one run.
     pub compare_plain_look: bool,
+    /// Also time the same frames with the vertex stage placing the clipmap's vertices itself
+    /// instead of the vertex pre-pass (`render::placement`), named scenes only.
+    pub compare_vertex_stage: bool,
 }
 
 /// One measured frame.
@@ -133,6 +136,8 @@ pub struct BenchRun {
     pub passthrough: Vec<FrameRecord>,
     /// The plain look's frames (see [`BenchOptions::compare_plain_look`]).
     pub plain_look: Vec<FrameRecord>,
+    /// The vertex stage's frames (see [`BenchOptions::compare_vertex_stage`]).
+    pub vertex_stage: Vec<FrameRecord>,
     pub wall_s: f64,
 }
 
@@ -264,6 +269,16 @@ pub fn run_with(
         }
         renderer.set_look(&ctx.device, options.look);
     }
+    let mut vertex_stage = Vec::new();
+    if let (true, Some(camera)) = (options.compare_vertex_stage, &fixed) {
+        renderer.set_place_in_vertex_stage(true);
+        target.draw_timed(ctx, &mut renderer, camera, timer.as_ref())?;
+        for _ in 0..options.frames {
+            let f = target.draw_timed(ctx, &mut renderer, camera, timer.as_ref())?;
+            vertex_stage.push(FrameRecord::of(&f, camera));
+        }
+        renderer.set_place_in_vertex_stage(false);
+    }
     let final_camera = camera_of(options.frames.saturating_sub(1));
     let (mut settle_s, mut settled, mut final_vs_loaded_px, mut final_frame) =
         (None, true, None, None);
@@ -318,6 +333,7 @@ pub fn run_with(
         error,
         passthrough,
         plain_look,
+        vertex_stage,
         options: options.clone(),
         frames,
         settle_s,
@@ -345,6 +361,11 @@ impl BenchRun {
     /// Median GPU time of the pass-through frames.
     pub fn passthrough_gpu_ms(&self) -> Option<f64> {
         median_gpu_ms(&self.passthrough)
+    }
+
+    /// Median GPU time of the frames whose vertex stage placed the vertices.
+    pub fn vertex_stage_gpu_ms(&self) -> Option<f64> {
+        median_gpu_ms(&self.vertex_stage)
     }
 
     /// Median GPU time of the plain look's frames.
@@ -459,6 +480,7 @@ impl BenchRun {
             look_vs_plain: (self.gpu_ms())
                 .zip(self.plain_look_gpu_ms())
                 .map(|(t, p)| t.0 / p),
+            vertex_stage_gpu_ms: self.vertex_stage_gpu_ms(),
             wall_s: self.wall_s,
         }
     }
@@ -532,6 +554,8 @@ pub struct BenchJson {
     /// The frames' GPU time with the plain look, and the look's over it (`--plain-look`).
     pub plain_look_gpu_ms: Option<f64>,
     pub look_vs_plain: Option<f64>,
+    /// The frames' GPU time with the vertex stage placing the vertices (`--vertex-stage`).
+    pub vertex_stage_gpu_ms: Option<f64>,
     pub wall_s: f64,
 }
 
@@ -893,6 +917,7 @@ mod view_tests {
             look: crate::look::LookSettings::default(),
             lod: Default::default(),
             compare_plain_look: false,
+            compare_vertex_stage: false,
         }
     }
 

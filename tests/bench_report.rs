@@ -33,6 +33,7 @@ fn bench_json_has_the_promised_fields() {
         look: globe::look::LookSettings::default(),
         lod: Default::default(),
         compare_plain_look: false,
+        compare_vertex_stage: false,
         measure_error: true,
         passthrough: true,
     };

@@ -712,6 +712,7 @@ fn the_flight_over_http_settles_to_the_local_files_frame() {
         look: globe::look::LookSettings::default(),
         lod: Default::default(),
         compare_plain_look: false,
+        compare_vertex_stage: false,
         measure_error: false,
         passthrough: false,
     };

@@ -91,6 +91,7 @@ fn flight_options(latency_ms: u64, fail_rate: f64, cache_bytes: u64) -> BenchOpt
         look: globe::look::LookSettings::default(),
         lod: Default::default(),
         compare_plain_look: false,
+        compare_vertex_stage: false,
         measure_error: false,
         passthrough: false,
     }

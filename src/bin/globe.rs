@@ -623,6 +623,10 @@ struct BenchArgs {
     /// report the look's GPU time over the plain one's (named scenes).
     #[arg(long = "plain-look")]
     plain_look: bool,
+    /// Also time the same frames with the vertex stage placing the clipmap's vertices (as
+    /// before the vertex pre-pass) and report the pre-pass's GPU time over it (named scenes).
+    #[arg(long = "vertex-stage")]
+    vertex_stage: bool,
     /// Tiles read by each side of the `jump` throughput comparison.
     #[arg(long = "throughput-tiles", default_value_t = 256)]
     throughput_tiles: usize,
@@ -1031,6 +1035,7 @@ fn bench(args: &BenchArgs) -> anyhow::Result<ExitCode> {
             look: args.look.settings(),
             lod: args.lod.settings()?,
             compare_plain_look: args.plain_look,
+            compare_vertex_stage: args.vertex_stage,
             frame_interval: {
                 let default = if is_flight { 60.0 } else { 0.0 };
                 let fps = args.fps.unwrap_or(default);
@@ -1178,6 +1183,12 @@ fn print_bench(run: &globe::bench::BenchRun) {
         println!(
             "  plain look GPU ms median {p:.3}: look / plain {:.2}",
             t.0 / p
+        );
+    }
+    if let (Some(v), Some(t)) = (run.vertex_stage_gpu_ms(), run.gpu_ms()) {
+        println!(
+            "  vertex stage placing GPU ms median {v:.3}: pre-pass / vertex stage {:.2}",
+            t.0 / v
         );
     }
     if let Some(e) = &run.error {

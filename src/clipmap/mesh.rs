@@ -16,6 +16,7 @@
 //! to. The paper needed one duplicated line; with our sign convention (DESIGN.md) the north pole
 //! lies beyond φ̃ = π and the south pole beyond φ̃ = 0, so both are handled.
 
+use std::collections::HashMap;
 use std::ops::Range;
 
 use bytemuck::{Pod, Zeroable};
@@ -301,6 +302,60 @@ impl RingMesh {
     }
 }
 
+/// The distinct vertices of every index range of a [`RingMesh`], for the vertex pre-pass
+/// (`render::placement`): a frame places each vertex its drawn ranges use once, instead of
+/// once per triangle-list position a vertex cache happens to miss.
+#[derive(Debug, Default)]
+pub struct RangeVertices {
+    /// Every range's vertex ids, ascending, one range after the other.
+    ids: Vec<u32>,
+    /// Index range → its slice of `ids`.
+    of: HashMap<(u32, u32), Range<u32>>,
+}
+
+impl RangeVertices {
+    /// The lists of every non-empty range of every level, density and part of `mesh`.
+    pub fn build(mesh: &RingMesh) -> Self {
+        let mut out = Self::default();
+        // `seen[v] == stamp`: v already listed for the range being built.
+        let mut seen = vec![0u32; mesh.vertices.len()];
+        let mut stamp = 0u32;
+        let ranges = mesh.levels.iter().flatten().flat_map(|r| {
+            r.body
+                .iter()
+                .chain(&r.body_blend)
+                .chain(r.outer.iter().flatten())
+                .chain(r.inner.iter().flatten())
+                .chain(&r.cap)
+        });
+        for range in ranges {
+            if range.is_empty() || out.of.contains_key(&(range.start, range.end)) {
+                continue;
+            }
+            stamp += 1;
+            let start = out.ids.len();
+            for &i in &mesh.indices[range.start as usize..range.end as usize] {
+                if seen[i as usize] != stamp {
+                    seen[i as usize] = stamp;
+                    out.ids.push(i);
+                }
+            }
+            out.ids[start..].sort_unstable();
+            out.of
+                .insert((range.start, range.end), start as u32..out.ids.len() as u32);
+        }
+        out
+    }
+
+    /// The distinct vertices of the mesh's index range `range` (one of its sector ranges, not
+    /// a merged one); empty for a range the mesh does not have.
+    pub fn get(&self, range: &Range<u32>) -> &[u32] {
+        self.of
+            .get(&(range.start, range.end))
+            .map_or(&[], |r| &self.ids[r.start as usize..r.end as usize])
+    }
+}
+
 fn ring_vertex(
     theta: f64,
     step: u32,
@@ -364,6 +419,34 @@ mod tests {
                 .iter()
                 .all(|&i| (i as usize) < mesh.vertices.len())
         );
+    }
+
+    /// Each range's list holds exactly the distinct vertices its triangles index, once each.
+    #[test]
+    fn range_vertices_are_the_distinct_indices() {
+        let mesh = RingMesh::build(&dense());
+        let lists = RangeVertices::build(&mesh);
+        let mut checked = 0;
+        for r in mesh.levels.iter().flatten() {
+            for range in r
+                .body
+                .iter()
+                .chain(&r.body_blend)
+                .chain(r.outer.iter().flatten())
+                .chain(r.inner.iter().flatten())
+                .chain(&r.cap)
+            {
+                let mut want: Vec<u32> =
+                    mesh.indices[range.start as usize..range.end as usize].to_vec();
+                want.sort_unstable();
+                want.dedup();
+                assert_eq!(lists.get(range), &want[..], "range {range:?}");
+                checked += !range.is_empty() as u32;
+            }
+        }
+        assert!(checked > 100, "only {checked} ranges");
+        // A merged range is not one of the mesh's: nothing to place.
+        assert!(lists.get(&(0..u32::MAX)).is_empty());
     }
 
     fn dense() -> ClipmapSettings {

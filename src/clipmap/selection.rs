@@ -309,6 +309,9 @@ pub struct DrawList {
     pub variants: Vec<Variant>,
     /// Per range: its level (the water cull decides per level which pipeline draws it).
     pub levels: Vec<u32>,
+    /// The mesh's ranges drawn, unmerged, with their variants: which vertices the frame places
+    /// (`clipmap::mesh::RangeVertices`, the vertex pre-pass) and with which variant.
+    pub pieces: Vec<(Range<u32>, Variant)>,
     pub triangles: u64,
     pub sectors_drawn: u32,
     pub sectors_culled: u32,
@@ -349,6 +352,7 @@ impl DrawList {
             }
             list.sectors_drawn += count as u32;
             list.triangles += ((range.end - range.start) / 3) as u64;
+            list.pieces.push((range.clone(), variant));
             match list.ranges.last_mut() {
                 Some(last)
                     if last.end == range.start

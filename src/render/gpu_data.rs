@@ -657,6 +657,34 @@ gpu_struct!(DemFillParams as "DemFillParams" {
     base, frac, step, slot0, extent, layer, size, page_base, tiles_x, cols, rows, tile_size,
     wraps, cap_north, cap_south, decode, offset,
 });
+/// `PlacedVertex` in `shaders/terrain.wgsl`: one ring vertex placed by the vertex pre-pass
+/// (`render::placement`), which the clipmap's draws read as their vertex buffer.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct PlacedVertex {
+    pub clip: [f32; 4],
+    /// Δφ, Δθ, coarse blend, bump σ.
+    pub map_blend: [f32; 4],
+    /// p̃ and the level (as f32).
+    pub p_level: [f32; 4],
+    pub rel: [f32; 4],
+    /// The haze's three terms (written only with the sky on).
+    pub inscatter: [f32; 4],
+    pub view_t: [f32; 4],
+    pub sun_t: [f32; 4],
+}
+
+gpu_struct!(PlacedVertex as "PlacedVertex" {
+    clip, map_blend, p_level, rel, inscatter, view_t, sun_t,
+});
+
+/// The vertex buffer layout of [`PlacedVertex`]: `PlacedIn` (locations 0–3) and `PlacedHaze`
+/// (4–6) in `shaders/terrain.wgsl`, one `vec4<f32>` per field in field order.
+pub const PLACED_VERTEX_ATTRIBUTES: [wgpu::VertexAttribute; 7] = wgpu::vertex_attr_array![
+    0 => Float32x4, 1 => Float32x4, 2 => Float32x4, 3 => Float32x4,
+    4 => Float32x4, 5 => Float32x4, 6 => Float32x4
+];
+
 gpu_struct!(RingVertex as "RingVertex" {
     p_tilde, one_minus_cos, theta_tilde_rad, ring_t, level, seam_side,
 });
@@ -722,6 +750,7 @@ pub fn pass_contracts() -> Vec<PassContract> {
                 LookUniforms::layout(),
                 PlanarUniforms::layout(),
                 PatchGpu::layout(),
+                PlacedVertex::layout(),
             ],
             buffers: vec![
                 buffer(0, FrameUniforms::wgsl_type()),
@@ -749,6 +778,17 @@ pub fn pass_contracts() -> Vec<PassContract> {
                 // The ring vertices again, read by index for the morph's neighbours.
                 buffer(8, "array<MeshVertex>".to_string()),
                 buffer(9, LookUniforms::wgsl_type()),
+                // The vertex pre-pass's output and work list (render::placement).
+                BufferBinding {
+                    group: 2,
+                    binding: 0,
+                    wgsl_type: "array<PlacedVertex>".to_string(),
+                },
+                BufferBinding {
+                    group: 2,
+                    binding: 1,
+                    wgsl_type: "array<u32>".to_string(),
+                },
             ],
             vertex: Some((RingVertex::layout(), &RING_VERTEX_ATTRIBUTES)),
             workgroup_size: None,

@@ -12,6 +12,7 @@ pub mod gpu_data;
 pub mod look;
 pub mod normals;
 pub mod offscreen;
+pub mod placement;
 pub mod planar;
 pub mod shader;
 pub mod terrain;

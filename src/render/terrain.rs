@@ -24,10 +24,12 @@ use super::dem_feed::{DemFeed, FeedFrame};
 use super::detail::{self, DetailResources};
 use super::fill::{FillJob, FillPass};
 use super::gpu_data::{
-    self, BumpUniforms, FrameUniforms, LevelUniforms, LookUniforms, RING_VERTEX_ATTRIBUTES,
+    self, BumpUniforms, FrameUniforms, LevelUniforms, LookUniforms, PLACED_VERTEX_ATTRIBUTES,
+    PlacedVertex, RING_VERTEX_ATTRIBUTES,
 };
 use super::look::LookResources;
 use super::normals::{NORMAL_FORMAT, NormalPass};
+use super::placement::Placement;
 use super::planar::{PlanarDraw, PlanarResources};
 use super::shader::{self, MAX_LEVELS};
 use super::water_cull::WaterCull;
@@ -141,6 +143,12 @@ pub struct TerrainRenderer {
     pipelines: ClipmapPipelines,
     /// Same vertices and triangles, flat and untextured (benchmark reference).
     passthrough: wgpu::RenderPipeline,
+    /// The vertex pre-pass (`render::placement`): its buffers and, per variant, its pipeline
+    /// (None while the vertex stage places the vertices itself).
+    placement: Placement,
+    place_pipelines: Option<[wgpu::ComputePipeline; 3]>,
+    /// This frame's terrain timing started before the pass (query 0 written by `prepare`).
+    timing_started: bool,
     pipeline_parts: PipelineParts,
     /// What of the look is drawn (`set_look`).
     look: LookSettings,
@@ -382,9 +390,11 @@ impl TerrainRenderer {
             mapped_at_creation: false,
         });
         let look_resources = LookResources::new(device, color_format);
+        // Compute too where the vertex pre-pass reads it (render::placement).
+        let place = wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::COMPUTE;
         let uniform_entry = |binding| wgpu::BindGroupLayoutEntry {
             binding,
-            visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
+            visibility: wgpu::ShaderStages::VERTEX_FRAGMENT | wgpu::ShaderStages::COMPUTE,
             ty: wgpu::BindingType::Buffer {
                 ty: wgpu::BufferBindingType::Uniform,
                 has_dynamic_offset: false,
@@ -413,7 +423,7 @@ impl TerrainRenderer {
             count: None,
         };
         let (both, fragment) = (
-            wgpu::ShaderStages::VERTEX_FRAGMENT,
+            wgpu::ShaderStages::VERTEX_FRAGMENT | wgpu::ShaderStages::COMPUTE,
             wgpu::ShaderStages::FRAGMENT,
         );
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -424,7 +434,7 @@ impl TerrainRenderer {
                 texture_entry(2, both, false),
                 texture_entry(3, both, false),
                 uniform_entry(4),
-                storage_entry(5, wgpu::ShaderStages::VERTEX),
+                storage_entry(5, place),
                 texture_entry(6, fragment, true),
                 wgpu::BindGroupLayoutEntry {
                     binding: 7,
@@ -432,7 +442,7 @@ impl TerrainRenderer {
                     ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
                     count: None,
                 },
-                storage_entry(8, wgpu::ShaderStages::VERTEX),
+                storage_entry(8, place),
                 uniform_entry(9),
                 texture_entry(10, fragment, true),
                 wgpu::BindGroupLayoutEntry {
@@ -527,10 +537,18 @@ impl TerrainRenderer {
             bind_group_layouts: &[Some(&layout), Some(planar.layout())],
             immediate_size: 0,
         });
+        let placement = Placement::new(device, &mesh);
+        let place_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("vertex placement pipeline layout"),
+            bind_group_layouts: &[Some(&layout), None, Some(placement.layout())],
+            immediate_size: 0,
+        });
         let pipeline_parts = PipelineParts {
             device: device.clone(),
             module,
             layout: pipeline_layout,
+            place_layout,
+            vertex_stage: false,
             color_format,
             detail_on: terrain.detail().is_some(),
             water_on: terrain.water_level_m().is_some(),
@@ -538,7 +556,7 @@ impl TerrainRenderer {
             level_overlay: false,
         };
         let look = LookSettings::default();
-        let (pipelines, passthrough) = pipeline_parts.build(device, look);
+        let (pipelines, passthrough, place_pipelines) = pipeline_parts.build(device, look);
         let mut fill = FillPass::new(
             device,
             ANALYTIC_JOBS_PER_LEVEL * settings.levels,
@@ -577,6 +595,9 @@ impl TerrainRenderer {
             bind_group,
             pipelines,
             passthrough,
+            placement,
+            place_pipelines,
+            timing_started: false,
             pipeline_parts,
             look,
             look_resources,
@@ -606,6 +627,31 @@ impl TerrainRenderer {
             grid_pipelines: None,
             wire_pipelines: None,
         })
+    }
+
+    /// The wireframe overlay's pipelines draw this frame.
+    fn wire_drawn(&self) -> bool {
+        self.overlays.wireframe && self.wire_pipelines.is_some() && !self.use_passthrough
+    }
+
+    /// The clipmap's draws read the vertex pre-pass's vertices this frame.
+    fn placed_drawn(&self) -> bool {
+        self.place_pipelines.is_some() && !self.use_passthrough && !self.wire_drawn()
+    }
+
+    /// Measurement: the vertex stage places the clipmap's vertices itself, as before the
+    /// vertex pre-pass (`render::placement`); off by default. Rebuilds the pipelines.
+    pub fn set_place_in_vertex_stage(&mut self, on: bool) {
+        if on != self.pipeline_parts.vertex_stage {
+            self.pipeline_parts.vertex_stage = on;
+            let device = self.pipeline_parts.device.clone();
+            self.rebuild_pipelines(&device);
+        }
+    }
+
+    /// Vertices the last frame's pre-pass placed (0 when the vertex stage places them).
+    pub fn vertices_placed(&self) -> u64 {
+        self.placement.placed_last_frame()
     }
 
     /// The wireframe overlay on or off (builds its pipelines the first time).
@@ -1134,6 +1180,25 @@ impl TerrainRenderer {
             self.look_time_s,
         );
         queue.write_buffer(&self.look_resources.uniforms, 0, bytemuck::bytes_of(&look));
+        // Benchmark: the terrain's time runs from here (the sky table, the water cull and the
+        // vertex pre-pass are the terrain pass's work too) to the terrain pass's end; the
+        // pass-through's is its pass alone.
+        self.timing_started = false;
+        if let Some(q) = self
+            .fill_timestamps
+            .as_ref()
+            .filter(|_| !self.use_passthrough)
+        {
+            encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("terrain timing start"),
+                timestamp_writes: Some(wgpu::ComputePassTimestampWrites {
+                    query_set: q,
+                    beginning_of_pass_write_index: Some(0),
+                    end_of_pass_write_index: None,
+                }),
+            });
+            self.timing_started = true;
+        }
         // The sky from its table wherever the eye is inside the atmosphere (render::look).
         let inside = look.eye_radius_m < look.shell[1];
         self.look_resources
@@ -1154,6 +1219,18 @@ impl TerrainRenderer {
                     boxes,
                     water_level_m: look.water_level_m,
                 },
+            );
+        }
+
+        if self.placed_drawn() && !clipmap.draw.pieces.is_empty() {
+            let pipelines = self.place_pipelines.as_ref().expect("placed_drawn");
+            self.placement.encode(
+                &self.pipeline_parts.device,
+                queue,
+                encoder,
+                &clipmap.draw.pieces,
+                pipelines,
+                &self.bind_group,
             );
         }
 
@@ -1197,7 +1274,8 @@ impl TerrainRenderer {
     /// pipeline constants).
     fn rebuild_pipelines(&mut self, device: &wgpu::Device) {
         let look = self.look;
-        (self.pipelines, self.passthrough) = self.pipeline_parts.build(device, look);
+        (self.pipelines, self.passthrough, self.place_pipelines) =
+            self.pipeline_parts.build(device, look);
         if self.planar_pipelines.is_some() {
             self.planar_pipelines = Some(self.pipeline_parts.build_planar(
                 device,
@@ -1227,7 +1305,8 @@ impl TerrainRenderer {
 
     /// Records a whole terrain pass: colour cleared to the sky, depth cleared to 0 (reversed-Z),
     /// then the draw calls of `info`. `depth_store` keeps the depth for readback or discards it;
-    /// `timestamps` times the pass on the GPU.
+    /// `timestamps` times the pass on the GPU (from the work `prepare` recorded after the fill
+    /// when it started the timing there).
     pub fn encode_pass(
         &self,
         encoder: &mut wgpu::CommandEncoder,
@@ -1257,7 +1336,12 @@ impl TerrainRenderer {
                 }),
                 stencil_ops: None,
             }),
-            timestamp_writes: timestamps,
+            timestamp_writes: timestamps.map(|t| wgpu::RenderPassTimestampWrites {
+                beginning_of_pass_write_index: t
+                    .beginning_of_pass_write_index
+                    .filter(|_| !self.timing_started),
+                ..t
+            }),
             occlusion_query_set: None,
             multiview_mask: None,
         });
@@ -1268,7 +1352,14 @@ impl TerrainRenderer {
     pub fn draw(&self, pass: &mut wgpu::RenderPass<'_>, info: &FrameInfo) {
         pass.set_bind_group(0, &self.bind_group, &[]);
         pass.set_bind_group(1, self.planar.bind_group(), &[]);
-        pass.set_vertex_buffer(0, self.vertex_buffer.slice(..));
+        pass.set_vertex_buffer(
+            0,
+            if self.placed_drawn() {
+                self.placement.vertex_buffer().slice(..)
+            } else {
+                self.vertex_buffer.slice(..)
+            },
+        );
         pass.set_index_buffer(self.index_buffer.slice(..), wgpu::IndexFormat::Uint32);
         let mut current = None;
         let wire = self
@@ -1381,12 +1472,39 @@ impl TerrainRenderer {
     }
 }
 
+/// What a terrain pipeline's vertex stage reads from vertex buffers.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum VertexInput {
+    /// The ring mesh's vertices.
+    Ring,
+    /// The vertex pre-pass's output (`render::placement`).
+    Placed,
+    /// Nothing: the stage pulls what it needs from storage buffers.
+    None,
+}
+
+/// Where the clipmap's draws get their vertices.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum ClipmapVertices {
+    /// Placed by the pre-pass (`vs_placed`, `vs_placed_haze`).
+    Placed,
+    /// Placed by the vertex stage from the ring vertex buffer (`vs_main`).
+    Ring,
+    /// The wireframe overlay's: the vertex stage pulls the indices (`vs_main_wire`).
+    Wire,
+}
+
 /// What the terrain pipelines are built from, kept to rebuild them when the look changes.
 struct PipelineParts {
     /// Kept to rebuild the pipelines when the level overlay is switched (`prepare`).
     device: wgpu::Device,
     module: wgpu::ShaderModule,
     layout: wgpu::PipelineLayout,
+    /// The vertex pre-pass's: the terrain group, none, its own (`render::placement`).
+    place_layout: wgpu::PipelineLayout,
+    /// The clipmap's draws place their vertices themselves (`vs_main`) instead of reading the
+    /// pre-pass's (`vs_placed`).
+    vertex_stage: bool,
     color_format: wgpu::TextureFormat,
     detail_on: bool,
     /// The terrain has water (its geometry rule and its shading).
@@ -1398,8 +1516,7 @@ struct PipelineParts {
 }
 
 impl PipelineParts {
-    /// One pipeline of terrain.wgsl (planar.wgsl appended): `ring_vertices` feeds the ring
-    /// mesh's vertex buffer (the planar methods index their lattice instead).
+    /// One pipeline of terrain.wgsl (planar.wgsl appended), its vertex stage fed by `input`.
     #[allow(clippy::too_many_arguments)]
     fn pipeline(
         &self,
@@ -1408,13 +1525,18 @@ impl PipelineParts {
         vs: &str,
         fs: &str,
         constants: &[(&str, f64)],
-        ring_vertices: bool,
+        input: VertexInput,
         cull_mode: Option<wgpu::Face>,
     ) -> wgpu::RenderPipeline {
         let ring = [Some(wgpu::VertexBufferLayout {
             array_stride: std::mem::size_of::<RingVertex>() as u64,
             step_mode: wgpu::VertexStepMode::Vertex,
             attributes: &RING_VERTEX_ATTRIBUTES,
+        })];
+        let placed = [Some(wgpu::VertexBufferLayout {
+            array_stride: std::mem::size_of::<PlacedVertex>() as u64,
+            step_mode: wgpu::VertexStepMode::Vertex,
+            attributes: &PLACED_VERTEX_ATTRIBUTES,
         })];
         device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
             label: Some(label),
@@ -1426,7 +1548,11 @@ impl PipelineParts {
                     constants,
                     ..Default::default()
                 },
-                buffers: if ring_vertices { &ring } else { &[] },
+                buffers: match input {
+                    VertexInput::Ring => &ring,
+                    VertexInput::Placed => &placed,
+                    VertexInput::None => &[],
+                },
             },
             primitive: wgpu::PrimitiveState {
                 topology: wgpu::PrimitiveTopology::TriangleList,
@@ -1487,20 +1613,26 @@ impl PipelineParts {
         ]
     }
 
-    /// The clipmap's three variants (plain, blend band, morphing levels) drawn by vertex entry
-    /// `vs`: `vs_main` from the ring vertex buffer, `vs_main_wire` (the wireframe overlay)
-    /// pulling its indices; `cut` leaves a planar method's square out. With water, `vs_main`'s
+    /// The clipmap's three variants (plain, blend band, morphing levels) with vertices from
+    /// `source`; `cut` leaves a planar method's square out. With water, the indexed draws'
     /// also without the water's shading (the water cull's indirect draws).
     fn clipmap_variants(
         &self,
         device: &wgpu::Device,
         look: LookSettings,
-        vs: &str,
+        source: ClipmapVertices,
         cut: bool,
     ) -> ClipmapPipelines {
+        let (vs, input) = match source {
+            ClipmapVertices::Placed if look.sky => ("vs_placed_haze", VertexInput::Placed),
+            ClipmapVertices::Placed => ("vs_placed", VertexInput::Placed),
+            ClipmapVertices::Ring => ("vs_main", VertexInput::Ring),
+            ClipmapVertices::Wire => ("vs_main_wire", VertexInput::None),
+        };
+        let wire = source == ClipmapVertices::Wire;
         let build = |wet: bool| {
             [(false, false), (false, true), (true, true)].map(|(morph, blend)| {
-                let c = self.constants(look, morph, blend, cut, wet, vs.ends_with("_wire"));
+                let c = self.constants(look, morph, blend, cut, wet, wire);
                 let label =
                     format!("terrain {vs} (morph {morph}, blend {blend}, cut {cut}, wet {wet})");
                 self.pipeline(
@@ -1509,15 +1641,47 @@ impl PipelineParts {
                     vs,
                     "fs_main",
                     &c,
-                    vs == "vs_main",
+                    input,
                     Some(wgpu::Face::Back),
                 )
             })
         };
         ClipmapPipelines {
             wet: build(true),
-            dry: (self.water_on && vs == "vs_main").then(|| build(false)),
+            dry: (self.water_on && !wire).then(|| build(false)),
         }
+    }
+
+    /// Where the clipmap's indexed draws take their vertices from.
+    fn clipmap_source(&self) -> ClipmapVertices {
+        if self.vertex_stage {
+            ClipmapVertices::Ring
+        } else {
+            ClipmapVertices::Placed
+        }
+    }
+
+    /// The vertex pre-pass's pipelines, one per variant (plain, blend, morph): `cs_place` with
+    /// the same constants as the draws' vertex stage.
+    fn place_pipelines(
+        &self,
+        device: &wgpu::Device,
+        look: LookSettings,
+    ) -> [wgpu::ComputePipeline; 3] {
+        [(false, false), (false, true), (true, true)].map(|(morph, blend)| {
+            let constants = self.constants(look, morph, blend, false, true, false);
+            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(&format!("vertex placement (morph {morph}, blend {blend})")),
+                layout: Some(&self.place_layout),
+                module: &self.module,
+                entry_point: Some("cs_place"),
+                compilation_options: wgpu::PipelineCompilationOptions {
+                    constants: &constants,
+                    ..Default::default()
+                },
+                cache: None,
+            })
+        })
     }
 
     /// Geomipmapping's pipeline with vertex entry `vs` (`vs_geomip`, or `vs_geomip_wire` for
@@ -1538,7 +1702,7 @@ impl PipelineParts {
             vs,
             "fs_main",
             &c,
-            false,
+            VertexInput::None,
             Some(wgpu::Face::Back),
         )
     }
@@ -1561,7 +1725,7 @@ impl PipelineParts {
             vs,
             fs,
             &c,
-            false,
+            VertexInput::None,
             None,
         )
     }
@@ -1581,7 +1745,7 @@ impl PipelineParts {
         geomorph: bool,
     ) -> PlanarPipelines {
         PlanarPipelines {
-            clipmap_cut: self.clipmap_variants(device, look, "vs_main", true),
+            clipmap_cut: self.clipmap_variants(device, look, self.clipmap_source(), true),
             geomip: self.geomip_pipeline(device, look, geomorph, "vs_geomip"),
         }
     }
@@ -1594,32 +1758,38 @@ impl PipelineParts {
         geomorph: bool,
     ) -> WirePipelines {
         WirePipelines {
-            clipmap: self.clipmap_variants(device, look, "vs_main_wire", false),
-            clipmap_cut: self.clipmap_variants(device, look, "vs_main_wire", true),
+            clipmap: self.clipmap_variants(device, look, ClipmapVertices::Wire, false),
+            clipmap_cut: self.clipmap_variants(device, look, ClipmapVertices::Wire, true),
             geomip: self.geomip_pipeline(device, look, geomorph, "vs_geomip_wire"),
             grid: None,
         }
     }
 
-    /// The three terrain variants (plain, blend band, morphing levels) and the pass-through.
+    /// The three terrain variants (plain, blend band, morphing levels), the pass-through and
+    /// the vertex pre-pass's pipelines (None when the vertex stage places the vertices).
     /// Pipeline constants of terrain.wgsl: code a pipeline's draws cannot need is compiled
     /// out (a CPU rasteriser runs untaken branches), the look's parts that are off included.
     fn build(
         &self,
         device: &wgpu::Device,
         look: LookSettings,
-    ) -> (ClipmapPipelines, wgpu::RenderPipeline) {
-        let pipelines = self.clipmap_variants(device, look, "vs_main", false);
+    ) -> (
+        ClipmapPipelines,
+        wgpu::RenderPipeline,
+        Option<[wgpu::ComputePipeline; 3]>,
+    ) {
+        let pipelines = self.clipmap_variants(device, look, self.clipmap_source(), false);
         let passthrough = self.pipeline(
             device,
             "pass-through pipeline",
             "vs_passthrough",
             "fs_passthrough",
             &[],
-            true,
+            VertexInput::Ring,
             Some(wgpu::Face::Back),
         );
-        (pipelines, passthrough)
+        let place = (!self.vertex_stage).then(|| self.place_pipelines(device, look));
+        (pipelines, passthrough, place)
     }
 }
 

@@ -1,0 +1,88 @@
+//! The vertex pre-pass (`render::placement`): the clipmap's vertices placed once per frame by a
+//! compute pass and read by the draws as their vertex buffer. It must draw what the vertex
+//! stage drew when it placed the vertices itself, in every scene, with the look, the detail and
+//! a planar mode's cut, and place each vertex a frame uses once.
+
+mod common;
+
+use globe::plan::{LodMode, LodSettings};
+use globe::render::TerrainRenderer;
+use globe::scenes::Scene;
+
+const WIDTH_PX: u32 = 320;
+const HEIGHT_PX: u32 = 180;
+
+/// Pixels that differ, and the largest difference of a channel (in 1/255).
+fn compare(a: &[u8], b: &[u8]) -> (usize, u8) {
+    let mut differing = 0;
+    let mut largest = 0;
+    for (p, q) in a.chunks(4).zip(b.chunks(4)) {
+        if p != q {
+            differing += 1;
+            for (x, y) in p.iter().zip(q) {
+                largest = largest.max(x.abs_diff(*y));
+            }
+        }
+    }
+    (differing, largest)
+}
+
+#[test]
+fn the_pre_pass_draws_what_the_vertex_stage_drew() {
+    let Some((ctx, _guard)) = common::gpu() else {
+        return;
+    };
+    let geomip = LodSettings {
+        mode: LodMode::Geomip,
+        ..Default::default()
+    };
+    for (scene, detail, lod) in [
+        ("space", true, None),
+        ("aircraft", true, None),
+        ("ground", true, None),
+        ("ground", false, None),
+        // A planar mode: the clipmap's draws leave its square out (plane coordinates).
+        ("ground", true, Some(geomip)),
+    ] {
+        let build = |vertex_stage: bool| -> TerrainRenderer {
+            let mut r = common::full_look_renderer(ctx, detail);
+            if let Some(lod) = lod {
+                r.set_lod(&ctx.device, lod);
+            }
+            r.set_place_in_vertex_stage(vertex_stage);
+            r
+        };
+        let mut placed = build(false);
+        let camera = Scene::by_name(scene)
+            .unwrap()
+            .camera(|lat, lon| placed.terrain_height_m(lat, lon));
+        let a = common::render(ctx, &mut placed, &camera, WIDTH_PX, HEIGHT_PX);
+        let vertices = placed.vertices_placed();
+        let mut staged = build(true);
+        let b = common::render(ctx, &mut staged, &camera, WIDTH_PX, HEIGHT_PX);
+        assert_eq!(
+            staged.vertices_placed(),
+            0,
+            "{scene}: the vertex stage placed them"
+        );
+        assert_eq!(a.info.draw, b.info.draw, "{scene}: the same draws");
+        if lod.is_some() {
+            let d = &a.info.draw;
+            assert!(d.first_cut < d.ranges.len(), "{scene}: no range is cut");
+        }
+        let (differing, largest) = compare(&a.rgba, &b.rgba);
+        println!(
+            "{scene} (detail {detail}, lod {:?}): {vertices} vertices placed for {} triangles; \
+             {differing} pixels differ, by at most {largest}/255",
+            lod.map(|l| l.mode),
+            a.info.triangles()
+        );
+        // Each vertex once: far fewer than the three corners of every triangle.
+        assert!(
+            vertices > 0 && vertices < a.info.draw.triangles,
+            "{scene}: {vertices} vertices placed for {} triangles",
+            a.info.draw.triangles
+        );
+        assert_eq!(differing, 0, "{scene}: pixels the pre-pass changed");
+    }
+}
