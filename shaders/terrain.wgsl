@@ -441,18 +441,19 @@ fn placed_vertex(p: vec3<f32>, one_minus_cos: f32, h: f32, d: vec2<f32>, blend: 
 // again for every triangle its small vertex cache misses; here each vertex a frame's draws use
 // is placed once, on every core, by ring_vertex itself. The draws then read the result as
 // their vertex buffer (vs_placed). Rust twin: render::gpu_data::PlacedVertex.
+// 80 bytes: the clip position is the view matrix times `rel` (the draw multiplies, as
+// placed_vertex does); the haze's nine terms fill the last two and a half vectors.
 struct PlacedVertex {
-    clip: vec4<f32>,
-    // Δφ, Δθ, coarse blend, bump σ.
+    // Position relative to the eye (m) and the level (as f32: exact).
+    rel_level: vec4<f32>,
+    // p̃ and the bump octaves' σ.
+    p_sigma: vec4<f32>,
+    // Δφ, Δθ, the coarse blend; w: the haze's in-scattered red.
     map_blend: vec4<f32>,
-    // p̃ and the level (as f32: exact).
-    p_level: vec4<f32>,
-    // Position relative to the eye (m); w unused.
-    rel: vec4<f32>,
-    // The haze (SKY only): in-scattered light, the segment's and the sunlight's transmittance.
-    inscatter: vec4<f32>,
-    view_t: vec4<f32>,
-    sun_t: vec4<f32>,
+    // The haze (SKY only): in-scattered green, blue; the segment's transmittance (rgb); the
+    // sunlight's (rgb).
+    haze_a: vec4<f32>,
+    haze_b: vec4<f32>,
 }
 
 // Written by cs_place only (the draws bind the same buffer as a vertex buffer).
@@ -460,9 +461,7 @@ struct PlacedVertex {
 // Mesh vertex ids to place, padded with PLACE_NONE to whole workgroups.
 @group(2) @binding(1) var<storage, read> place_work: array<u32>;
 
-const PLACE_NONE: u32 = 0xffffffffu;
-
-@compute @workgroup_size(64)
+@compute @workgroup_size(PLACE_WORKGROUP)
 fn cs_place(@builtin(global_invocation_id) id: vec3<u32>) {
     let index = place_work[id.x];
     if index == PLACE_NONE {
@@ -478,42 +477,38 @@ fn cs_place(@builtin(global_invocation_id) id: vec3<u32>) {
     v.seam_side = m.seam_side;
     let o = ring_vertex(v, index);
     var q: PlacedVertex;
-    q.clip = o.clip;
-    q.map_blend = vec4<f32>(o.map_pos, o.coarse_blend, o.bump_sigma);
-    q.p_level = vec4<f32>(o.p_tilde, f32(o.level));
-    q.rel = vec4<f32>(o.rel, 0.0);
+    q.rel_level = vec4<f32>(o.rel, f32(o.level));
+    q.p_sigma = vec4<f32>(o.p_tilde, o.bump_sigma);
+    q.map_blend = vec4<f32>(o.map_pos, o.coarse_blend, o.inscatter.r);
     if SKY {
-        q.inscatter = vec4<f32>(o.inscatter, 0.0);
-        q.view_t = vec4<f32>(o.view_t, 0.0);
-        q.sun_t = vec4<f32>(o.sun_t, 0.0);
+        q.haze_a = vec4<f32>(o.inscatter.gb, o.view_t.rg);
+        q.haze_b = vec4<f32>(o.view_t.b, o.sun_t);
     }
     placed_out[index] = q;
 }
 
 // A placed vertex as the draw reads it (render::gpu_data::PLACED_VERTEX_ATTRIBUTES).
 struct PlacedIn {
-    @location(0) clip: vec4<f32>,
-    @location(1) map_blend: vec4<f32>,
-    @location(2) p_level: vec4<f32>,
-    @location(3) rel: vec4<f32>,
+    @location(0) rel_level: vec4<f32>,
+    @location(1) p_sigma: vec4<f32>,
+    @location(2) map_blend: vec4<f32>,
 }
 
 struct PlacedHaze {
-    @location(4) inscatter: vec4<f32>,
-    @location(5) view_t: vec4<f32>,
-    @location(6) sun_t: vec4<f32>,
+    @location(3) haze_a: vec4<f32>,
+    @location(4) haze_b: vec4<f32>,
 }
 
 fn unpack_placed(q: PlacedIn) -> VertexOut {
     var out: VertexOut;
-    out.clip = q.clip;
+    out.rel = q.rel_level.xyz;
+    out.clip = frame.clip_from_view * vec4<f32>(out.rel, 1.0);
     out.map_pos = q.map_blend.xy;
     out.coarse_blend = q.map_blend.z;
-    out.bump_sigma = q.map_blend.w;
-    out.p_tilde = q.p_level.xyz;
-    out.level = u32(q.p_level.w);
+    out.bump_sigma = q.p_sigma.w;
+    out.p_tilde = q.p_sigma.xyz;
+    out.level = u32(q.rel_level.w);
     out.tag = out.level;
-    out.rel = q.rel.xyz;
     out.bary = vec3<f32>(1.0);
     out.inscatter = vec3<f32>(0.0);
     out.view_t = vec3<f32>(1.0);
@@ -532,9 +527,9 @@ fn vs_placed(q: PlacedIn) -> VertexOut {
 @vertex
 fn vs_placed_haze(q: PlacedIn, h: PlacedHaze) -> VertexOut {
     var out = unpack_placed(q);
-    out.inscatter = h.inscatter.xyz;
-    out.view_t = h.view_t.xyz;
-    out.sun_t = h.sun_t.xyz;
+    out.inscatter = vec3<f32>(q.map_blend.w, h.haze_a.xy);
+    out.view_t = vec3<f32>(h.haze_a.zw, h.haze_b.x);
+    out.sun_t = h.haze_b.yzw;
     return out;
 }
 

@@ -87,8 +87,12 @@ impl GpuContext {
             required_features: adapter.features() & wanted,
             // The adapter's texture sizes and array layers: the GPU tile cache is one array
             // (`--gpu-tiles`, 512 by default; wgpu's default limit is 256 layers).
+            // Its buffer sizes: the vertex pre-pass holds one placed vertex per mesh vertex
+            // (render::placement: 160 MB at n = 1024, m = 64).
             required_limits: wgpu::Limits {
                 max_texture_array_layers: adapter.limits().max_texture_array_layers,
+                max_buffer_size: adapter.limits().max_buffer_size,
+                max_storage_buffer_binding_size: adapter.limits().max_storage_buffer_binding_size,
                 ..wgpu::Limits::default().using_resolution(adapter.limits())
             },
             experimental_features: wgpu::ExperimentalFeatures::disabled(),

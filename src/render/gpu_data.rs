@@ -662,27 +662,25 @@ gpu_struct!(DemFillParams as "DemFillParams" {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
 pub struct PlacedVertex {
-    pub clip: [f32; 4],
-    /// Δφ, Δθ, coarse blend, bump σ.
+    /// Position relative to the eye (m), the level (as f32).
+    pub rel_level: [f32; 4],
+    /// p̃, the bump octaves' σ.
+    pub p_sigma: [f32; 4],
+    /// Δφ, Δθ, coarse blend, the haze's in-scattered red.
     pub map_blend: [f32; 4],
-    /// p̃ and the level (as f32).
-    pub p_level: [f32; 4],
-    pub rel: [f32; 4],
-    /// The haze's three terms (written only with the sky on).
-    pub inscatter: [f32; 4],
-    pub view_t: [f32; 4],
-    pub sun_t: [f32; 4],
+    /// The haze's other eight terms (written only with the sky on).
+    pub haze_a: [f32; 4],
+    pub haze_b: [f32; 4],
 }
 
 gpu_struct!(PlacedVertex as "PlacedVertex" {
-    clip, map_blend, p_level, rel, inscatter, view_t, sun_t,
+    rel_level, p_sigma, map_blend, haze_a, haze_b,
 });
 
-/// The vertex buffer layout of [`PlacedVertex`]: `PlacedIn` (locations 0–3) and `PlacedHaze`
-/// (4–6) in `shaders/terrain.wgsl`, one `vec4<f32>` per field in field order.
-pub const PLACED_VERTEX_ATTRIBUTES: [wgpu::VertexAttribute; 7] = wgpu::vertex_attr_array![
-    0 => Float32x4, 1 => Float32x4, 2 => Float32x4, 3 => Float32x4,
-    4 => Float32x4, 5 => Float32x4, 6 => Float32x4
+/// The vertex buffer layout of [`PlacedVertex`]: `PlacedIn` (locations 0–2) and `PlacedHaze`
+/// (3–4) in `shaders/terrain.wgsl`, one `vec4<f32>` per field in field order.
+pub const PLACED_VERTEX_ATTRIBUTES: [wgpu::VertexAttribute; 5] = wgpu::vertex_attr_array![
+    0 => Float32x4, 1 => Float32x4, 2 => Float32x4, 3 => Float32x4, 4 => Float32x4
 ];
 
 gpu_struct!(RingVertex as "RingVertex" {

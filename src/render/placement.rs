@@ -6,8 +6,9 @@
 //! every index its small vertex cache misses; the ring mesh's rows are n + 2 vertices apart, so
 //! rows evict each other. The placement (map transform, 4–8 texel reads, a morph's two
 //! neighbours, the haze's integral) was most of a frame near the ground. A compute pass places
-//! each vertex exactly once, on every core. A GPU pays one write and one read of 112 bytes per
-//! vertex instead (`TerrainRenderer::set_place_in_vertex_stage` draws the old way).
+//! each vertex exactly once, on every core. A GPU pays one write and one read of 80 bytes per
+//! vertex instead (`TerrainRenderer::set_place_in_vertex_stage` draws the old way, and so does a
+//! device whose storage buffers cannot hold one vertex per mesh vertex).
 //!
 //! Which vertices: the distinct vertices of each drawn sector range (precomputed per range,
 //! [`RangeVertices`]), each placed by the variant of the first range that uses it. A vertex
@@ -24,8 +25,8 @@ use super::gpu_data::PlacedVertex;
 
 /// `@workgroup_size` of `cs_place`.
 pub const PLACE_WORKGROUP: u32 = 64;
-/// Work list padding (`PLACE_NONE` in terrain.wgsl).
-const NONE: u32 = u32::MAX;
+/// Work list padding: no vertex.
+pub const PLACE_NONE: u32 = u32::MAX;
 
 /// The pre-pass's buffers and the frame's work lists.
 pub struct Placement {
@@ -52,10 +53,21 @@ struct WorkList {
 }
 
 impl Placement {
-    pub fn new(device: &wgpu::Device, mesh: &RingMesh) -> Self {
+    /// None where the device's storage buffers cannot hold one placed vertex per mesh vertex
+    /// (the vertex stage places them then).
+    pub fn new(device: &wgpu::Device, mesh: &RingMesh) -> Option<Self> {
+        let size = (mesh.vertices.len() * std::mem::size_of::<PlacedVertex>()) as u64;
+        let limits = device.limits();
+        if size
+            > limits
+                .max_storage_buffer_binding_size
+                .min(limits.max_buffer_size)
+        {
+            return None;
+        }
         let placed = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("placed vertices"),
-            size: (mesh.vertices.len() * std::mem::size_of::<PlacedVertex>()) as u64,
+            size,
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::VERTEX,
             mapped_at_creation: false,
         });
@@ -75,7 +87,7 @@ impl Placement {
         });
         let work =
             [0, 1, 2].map(|_| WorkList::new(device, &layout, &placed, PLACE_WORKGROUP as u64 * 64));
-        Self {
+        Some(Self {
             placed,
             layout,
             work,
@@ -84,7 +96,7 @@ impl Placement {
             frame: 0,
             scratch: Default::default(),
             placed_last: 0,
-        }
+        })
     }
 
     /// Group 2 of `cs_place`'s pipeline layout.
@@ -139,7 +151,7 @@ impl Placement {
                 continue;
             }
             let whole = list.len().next_multiple_of(PLACE_WORKGROUP as usize);
-            list.resize(whole, NONE);
+            list.resize(whole, PLACE_NONE);
             if whole as u64 > work.capacity {
                 *work = WorkList::new(
                     device,

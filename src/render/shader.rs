@@ -57,6 +57,8 @@ pub fn shared_constants() -> Vec<SharedConstant> {
         c("RAY_STEPS", crate::planar::projgrid::RAY_STEPS),
         c("RAY_BISECTIONS", crate::planar::projgrid::RAY_BISECTIONS),
         c("MAX_OCTAVES", MAX_OCTAVES as u32),
+        c("PLACE_WORKGROUP", super::placement::PLACE_WORKGROUP),
+        c("PLACE_NONE", super::placement::PLACE_NONE),
         c("PROTO_TEXTURE_SIZE", crate::look::proto::TEXTURE_SIZE),
         c("DETAIL_AMPLITUDE_VECS", (MAX_OCTAVES / 4) as u32),
         c("TRANSFORM_DIRECT", TransformForm::Direct.shader_code()),

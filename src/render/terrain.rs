@@ -145,7 +145,7 @@ pub struct TerrainRenderer {
     passthrough: wgpu::RenderPipeline,
     /// The vertex pre-pass (`render::placement`): its buffers and, per variant, its pipeline
     /// (None while the vertex stage places the vertices itself).
-    placement: Placement,
+    placement: Option<Placement>,
     place_pipelines: Option<[wgpu::ComputePipeline; 3]>,
     /// This frame's terrain timing started before the pass (query 0 written by `prepare`).
     timing_started: bool,
@@ -538,17 +538,19 @@ impl TerrainRenderer {
             immediate_size: 0,
         });
         let placement = Placement::new(device, &mesh);
-        let place_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("vertex placement pipeline layout"),
-            bind_group_layouts: &[Some(&layout), None, Some(placement.layout())],
-            immediate_size: 0,
+        let place_layout = placement.as_ref().map(|p| {
+            device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some("vertex placement pipeline layout"),
+                bind_group_layouts: &[Some(&layout), None, Some(p.layout())],
+                immediate_size: 0,
+            })
         });
         let pipeline_parts = PipelineParts {
             device: device.clone(),
             module,
             layout: pipeline_layout,
+            vertex_stage: place_layout.is_none(),
             place_layout,
-            vertex_stage: false,
             color_format,
             detail_on: terrain.detail().is_some(),
             water_on: terrain.water_level_m().is_some(),
@@ -640,8 +642,10 @@ impl TerrainRenderer {
     }
 
     /// Measurement: the vertex stage places the clipmap's vertices itself, as before the
-    /// vertex pre-pass (`render::placement`); off by default. Rebuilds the pipelines.
+    /// vertex pre-pass (`render::placement`); off by default, on where the device cannot hold
+    /// the pre-pass's buffer (then it stays on). Rebuilds the pipelines.
     pub fn set_place_in_vertex_stage(&mut self, on: bool) {
+        let on = on || self.placement.is_none();
         if on != self.pipeline_parts.vertex_stage {
             self.pipeline_parts.vertex_stage = on;
             let device = self.pipeline_parts.device.clone();
@@ -651,7 +655,7 @@ impl TerrainRenderer {
 
     /// Vertices the last frame's pre-pass placed (0 when the vertex stage places them).
     pub fn vertices_placed(&self) -> u64 {
-        self.placement.placed_last_frame()
+        self.placement.as_ref().map_or(0, |p| p.placed_last_frame())
     }
 
     /// The wireframe overlay on or off (builds its pipelines the first time).
@@ -1222,9 +1226,12 @@ impl TerrainRenderer {
             );
         }
 
-        if self.placed_drawn() && !clipmap.draw.pieces.is_empty() {
-            let pipelines = self.place_pipelines.as_ref().expect("placed_drawn");
-            self.placement.encode(
+        if let (true, Some(placement), Some(pipelines)) = (
+            self.placed_drawn() && !clipmap.draw.pieces.is_empty(),
+            &mut self.placement,
+            &self.place_pipelines,
+        ) {
+            placement.encode(
                 &self.pipeline_parts.device,
                 queue,
                 encoder,
@@ -1354,10 +1361,9 @@ impl TerrainRenderer {
         pass.set_bind_group(1, self.planar.bind_group(), &[]);
         pass.set_vertex_buffer(
             0,
-            if self.placed_drawn() {
-                self.placement.vertex_buffer().slice(..)
-            } else {
-                self.vertex_buffer.slice(..)
+            match (&self.placement, self.placed_drawn()) {
+                (Some(p), true) => p.vertex_buffer().slice(..),
+                _ => self.vertex_buffer.slice(..),
             },
         );
         pass.set_index_buffer(self.index_buffer.slice(..), wgpu::IndexFormat::Uint32);
@@ -1500,8 +1506,9 @@ struct PipelineParts {
     device: wgpu::Device,
     module: wgpu::ShaderModule,
     layout: wgpu::PipelineLayout,
-    /// The vertex pre-pass's: the terrain group, none, its own (`render::placement`).
-    place_layout: wgpu::PipelineLayout,
+    /// The vertex pre-pass's: the terrain group, none, its own (`render::placement`; None
+    /// where the device cannot hold its buffer).
+    place_layout: Option<wgpu::PipelineLayout>,
     /// The clipmap's draws place their vertices themselves (`vs_main`) instead of reading the
     /// pre-pass's (`vs_placed`).
     vertex_stage: bool,
@@ -1667,12 +1674,13 @@ impl PipelineParts {
         &self,
         device: &wgpu::Device,
         look: LookSettings,
+        layout: &wgpu::PipelineLayout,
     ) -> [wgpu::ComputePipeline; 3] {
         [(false, false), (false, true), (true, true)].map(|(morph, blend)| {
             let constants = self.constants(look, morph, blend, false, true, false);
             device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
                 label: Some(&format!("vertex placement (morph {morph}, blend {blend})")),
-                layout: Some(&self.place_layout),
+                layout: Some(layout),
                 module: &self.module,
                 entry_point: Some("cs_place"),
                 compilation_options: wgpu::PipelineCompilationOptions {
@@ -1788,7 +1796,11 @@ impl PipelineParts {
             VertexInput::Ring,
             Some(wgpu::Face::Back),
         );
-        let place = (!self.vertex_stage).then(|| self.place_pipelines(device, look));
+        let place = self
+            .place_layout
+            .as_ref()
+            .filter(|_| !self.vertex_stage)
+            .map(|layout| self.place_pipelines(device, look, layout));
         (pipelines, passthrough, place)
     }
 }
