@@ -7,6 +7,7 @@ mod common;
 
 use globe::plan::{LodMode, LodSettings};
 use globe::render::TerrainRenderer;
+use globe::render::offscreen::OffscreenFrame;
 use globe::scenes::Scene;
 
 const WIDTH_PX: u32 = 320;
@@ -36,6 +37,7 @@ fn the_pre_pass_draws_what_the_vertex_stage_drew() {
         mode: LodMode::Geomip,
         ..Default::default()
     };
+    let mut reused = 0;
     for (scene, detail, lod) in [
         ("space", true, None),
         ("aircraft", true, None),
@@ -84,5 +86,24 @@ fn the_pre_pass_draws_what_the_vertex_stage_drew() {
             a.info.draw.triangles
         );
         assert_eq!(differing, 0, "{scene}: pixels the pre-pass changed");
+
+        // The camera turned a little: the same ranges are drawn, so the pre-pass reuses its
+        // work lists, and must still place every vertex anew.
+        let mut turned = camera;
+        turned.heading_deg += 0.05;
+        turned.altitude_m *= 1.001;
+        // One frame each, no settling: this very frame must have reused the lists.
+        let target = OffscreenFrame::new(&ctx.device, WIDTH_PX, HEIGHT_PX);
+        let a = target.render_now(ctx, &mut placed, &turned).unwrap();
+        reused += placed.placement_lists_reused() as u32;
+        let b = target.render_now(ctx, &mut staged, &turned).unwrap();
+        let (differing, largest) = compare(&a.rgba, &b.rgba);
+        assert_eq!(
+            (differing, largest),
+            (0, 0),
+            "{scene}, turned: pixels the pre-pass changed"
+        );
     }
+    println!("{reused} of 5 turned frames reused the work lists");
+    assert!(reused > 0, "no turned frame reused its work lists");
 }

@@ -905,6 +905,13 @@ fn render(args: &RenderArgs) -> anyhow::Result<ExitCode> {
         count(LevelStatus::SubPixel)
     );
     eprintln!(
+        "ring density k per drawn level, coarse to fine (n/2^k steps, m/2^k rings): {}",
+        sel.drawn_levels()
+            .map(|l| frame.info.densities.levels[l as usize].body.k.to_string())
+            .collect::<Vec<_>>()
+            .join(" ")
+    );
+    eprintln!(
         "triangles {} in {} draw calls; sectors drawn {}, culled {}; texels filled {}",
         frame.info.triangles(),
         frame.info.draw.ranges.len(),

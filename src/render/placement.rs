@@ -46,6 +46,8 @@ pub struct Placement {
     pieces: Vec<(Range<u32>, Variant)>,
     /// Vertices placed by the last frame (tests, the bench's notes).
     placed_last: u64,
+    /// The last frame reused the work lists of the frame before.
+    reused_last: bool,
 }
 
 struct WorkList {
@@ -100,6 +102,7 @@ impl Placement {
             scratch: Default::default(),
             pieces: Vec::new(),
             placed_last: 0,
+            reused_last: false,
         })
     }
 
@@ -118,6 +121,11 @@ impl Placement {
         self.placed_last
     }
 
+    /// Whether the last [`encode`](Self::encode) reused the work lists of the one before.
+    pub fn reused_last_frame(&self) -> bool {
+        self.reused_last
+    }
+
     /// Records the pass that places the vertices of `pieces` (the frame's drawn ranges and
     /// their variants, `DrawList::pieces`) with `pipelines` (plain, blend, morph), reading the
     /// terrain's bind group `terrain` (group 0). After the frame's uniforms are written and its
@@ -131,7 +139,8 @@ impl Placement {
         pipelines: &[wgpu::ComputePipeline; 3],
         terrain: &wgpu::BindGroup,
     ) {
-        if pieces != self.pieces {
+        self.reused_last = pieces == self.pieces;
+        if !self.reused_last {
             self.write_lists(device, queue, pieces);
         }
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {

@@ -658,6 +658,13 @@ impl TerrainRenderer {
         self.placement.as_ref().map_or(0, |p| p.placed_last_frame())
     }
 
+    /// The last frame's pre-pass reused the work lists of the frame before (same ranges).
+    pub fn placement_lists_reused(&self) -> bool {
+        self.placement
+            .as_ref()
+            .is_some_and(|p| p.reused_last_frame())
+    }
+
     /// The wireframe overlay on or off (builds its pipelines the first time).
     pub fn set_wireframe(&mut self, device: &wgpu::Device, on: bool) {
         self.overlays.wireframe = on;
