@@ -308,6 +308,20 @@ fn with_plane_coords(v: VertexOut) -> VertexOut {
     return out;
 }
 
+// Mesh vertex `index` read from the storage copy, as the vertex buffer would give it (the draws
+// and passes that pull their vertices: the wireframe, the vertex pre-pass).
+fn mesh_vertex(index: u32) -> RingVertex {
+    let m = mesh[index];
+    var v: RingVertex;
+    v.p_tilde = m.p_tilde;
+    v.one_minus_cos = m.one_minus_cos;
+    v.theta_tilde_rad = m.theta_tilde_rad;
+    v.ring_t = m.ring_t;
+    v.level = m.level;
+    v.seam_side = m.seam_side;
+    return v;
+}
+
 // Barycentric corner of the i-th vertex of a triangle list.
 fn corner_bary(i: u32) -> vec3<f32> {
     let c = i % 3u;
@@ -319,15 +333,7 @@ fn corner_bary(i: u32) -> vec3<f32> {
 @vertex
 fn vs_main_wire(@builtin(vertex_index) i: u32) -> VertexOut {
     let index = ring_indices[i];
-    let m = mesh[index];
-    var v: RingVertex;
-    v.p_tilde = m.p_tilde;
-    v.one_minus_cos = m.one_minus_cos;
-    v.theta_tilde_rad = m.theta_tilde_rad;
-    v.ring_t = m.ring_t;
-    v.level = m.level;
-    v.seam_side = m.seam_side;
-    var out = with_plane_coords(ring_vertex(v, index));
+    var out = with_plane_coords(ring_vertex(mesh_vertex(index), index));
     out.bary = corner_bary(i);
     return out;
 }
@@ -467,15 +473,7 @@ fn cs_place(@builtin(global_invocation_id) id: vec3<u32>) {
     if index == PLACE_NONE {
         return;
     }
-    let m = mesh[index];
-    var v: RingVertex;
-    v.p_tilde = m.p_tilde;
-    v.one_minus_cos = m.one_minus_cos;
-    v.theta_tilde_rad = m.theta_tilde_rad;
-    v.ring_t = m.ring_t;
-    v.level = m.level;
-    v.seam_side = m.seam_side;
-    let o = ring_vertex(v, index);
+    let o = ring_vertex(mesh_vertex(index), index);
     var q: PlacedVertex;
     q.rel_level = vec4<f32>(o.rel, f32(o.level));
     q.p_sigma = vec4<f32>(o.p_tilde, o.bump_sigma);
