@@ -66,3 +66,17 @@ pub enum RenderError {
     #[error("{0}")]
     GpuTilesShort(dem_feed::GpuTilesShort),
 }
+
+/// A compute pass's storage buffer binding (unsized, no dynamic offset).
+pub fn compute_storage_entry(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Storage { read_only },
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    }
+}
