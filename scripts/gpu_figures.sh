@@ -27,7 +27,9 @@ step probe 40 bench --scene space --width 320 --height 180 --frames 5 --json --n
 grep -qi nvidia $OUT/bench.jsonl || { log "no NVIDIA adapter"; cat $OUT/stderr.txt; exit 1; }
 ALL="space aircraft ground everest north-pole antimeridian"
 # GPU times first (no error measurement: the reference ray caster is CPU work).
-for s in $ALL; do step "$s-on" 40 bench --scene $s $W --frames 100 --passthrough --plain-look --json --no-error; done
+# --vertex-stage: the vertex pre-pass against the vertex stage placing, in the same run (on a GPU
+# the pre-pass may cost more than it saves; render::placement).
+for s in $ALL; do step "$s-on" 40 bench --scene $s $W --frames 100 --passthrough --plain-look --vertex-stage --json --no-error; done
 step flight 60 bench --scene flight $W --frames 300 --passthrough --json --no-error
 for s in space aircraft ground; do step "$s-off" 30 bench --scene $s $W --frames 100 --passthrough --json --detail off --no-error; done
 for s in space aircraft ground; do step "$s-540" 30 bench --scene $s --width 960 --height 540 --frames 100 --passthrough --json --no-error; done
