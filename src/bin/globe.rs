@@ -1153,7 +1153,9 @@ fn print_bench(run: &globe::bench::BenchRun) {
     }
     match run.gpu_ms() {
         Some((m, lo, hi)) => {
-            println!("  GPU ms (terrain pass) median {m:.3}  min {lo:.3}  max {hi:.3}")
+            println!(
+                "  GPU ms (terrain: its compute passes and the pass) median {m:.3}  min {lo:.3}  max {hi:.3}"
+            )
         }
         None => println!("  GPU ms: the adapter has no timestamp queries"),
     }

@@ -1,6 +1,8 @@
 //! GPU time per pass from timestamp queries, where the adapter has them
-//! (`wgpu::Features::TIMESTAMP_QUERY`): queries 0–1 bracket the terrain pass, 2–3 the frame's
-//! compute fill (when it has one). The wall clock is never passed off as GPU time.
+//! (`wgpu::Features::TIMESTAMP_QUERY`): queries 0–1 bracket the terrain's work after the fill
+//! (the sky-view table, the water cull and the vertex pre-pass, written by
+//! `TerrainRenderer::prepare`, then the terrain pass; the pass-through's pass alone), 2–3 the
+//! frame's compute fill (when it has one). The wall clock is never passed off as GPU time.
 
 use super::{GpuContext, RenderError};
 
