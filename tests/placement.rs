@@ -1,7 +1,8 @@
 //! The vertex pre-pass (`render::placement`): the clipmap's vertices placed once per frame by a
 //! compute pass and read by the draws as their vertex buffer. It must draw what the vertex
 //! stage drew when it placed the vertices itself, in every scene, with the look, the detail and
-//! a planar mode's cut, and place each vertex a frame uses once.
+//! a planar mode's cut, over a pole and across the antimeridian, and place each vertex a frame
+//! uses once.
 
 mod common;
 
@@ -43,6 +44,9 @@ fn the_pre_pass_draws_what_the_vertex_stage_drew() {
         ("aircraft", true, None),
         ("ground", true, None),
         ("ground", false, None),
+        // The stiff cases: seam vertices carry their side of the ±π cut (§4.4).
+        ("north-pole", true, None),
+        ("antimeridian", true, None),
         // A planar mode: the clipmap's draws leave its square out (plane coordinates).
         ("ground", true, Some(geomip)),
     ] {
@@ -104,6 +108,6 @@ fn the_pre_pass_draws_what_the_vertex_stage_drew() {
             "{scene}, turned: pixels the pre-pass changed"
         );
     }
-    println!("{reused} of 5 turned frames reused the work lists");
+    println!("{reused} of 7 turned frames reused the work lists");
     assert!(reused > 0, "no turned frame reused its work lists");
 }
