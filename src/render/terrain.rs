@@ -149,6 +149,8 @@ pub struct TerrainRenderer {
     place_pipelines: Option<[wgpu::ComputePipeline; 3]>,
     /// This frame's terrain timing started before the pass (query 0 written by `prepare`).
     timing_started: bool,
+    /// The last frame's vertices came from the pre-pass.
+    frame_placed: bool,
     pipeline_parts: PipelineParts,
     /// What of the look is drawn (`set_look`).
     look: LookSettings,
@@ -600,6 +602,7 @@ impl TerrainRenderer {
             placement,
             place_pipelines,
             timing_started: false,
+            frame_placed: false,
             pipeline_parts,
             look,
             look_resources,
@@ -655,14 +658,19 @@ impl TerrainRenderer {
 
     /// Vertices the last frame's pre-pass placed (0 when the vertex stage places them).
     pub fn vertices_placed(&self) -> u64 {
-        self.placement.as_ref().map_or(0, |p| p.placed_last_frame())
+        match (&self.placement, self.frame_placed) {
+            (Some(p), true) => p.placed_last_frame(),
+            _ => 0,
+        }
     }
 
     /// The last frame's pre-pass reused the work lists of the frame before (same ranges).
     pub fn placement_lists_reused(&self) -> bool {
-        self.placement
-            .as_ref()
-            .is_some_and(|p| p.reused_last_frame())
+        self.frame_placed
+            && self
+                .placement
+                .as_ref()
+                .is_some_and(|p| p.reused_last_frame())
     }
 
     /// The wireframe overlay on or off (builds its pipelines the first time).
@@ -1233,6 +1241,7 @@ impl TerrainRenderer {
             );
         }
 
+        self.frame_placed = false;
         if let (true, Some(placement), Some(pipelines)) = (
             self.placed_drawn() && !clipmap.draw.pieces.is_empty(),
             &mut self.placement,
@@ -1246,6 +1255,7 @@ impl TerrainRenderer {
                 pipelines,
                 &self.bind_group,
             );
+            self.frame_placed = true;
         }
 
         // A frame whose camera height came from coarser tiles than its own is not settled,
