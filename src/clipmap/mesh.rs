@@ -85,15 +85,16 @@ pub struct RingMesh {
     pub max_density: u32,
 }
 
-/// The coarsest density (at most 3: n/8, m/8) whose rows and φ̃ steps still divide evenly:
-/// m/2^k ≥ 2 rings (distinct edge rows), n/2^k a multiple of 2 × sectors.
+/// The coarsest density a level can be drawn at (at most `MAX_DENSITY`): every density k has
+/// m/2^k ≥ 2 rings (distinct edge rows) and whole, even φ̃ steps per sector (n/2^k a multiple
+/// of the sector count, and even so that the φ̃ = π meridian stays a vertex).
 pub fn max_density(settings: &ClipmapSettings) -> u32 {
     let (n, m) = (settings.phi_steps, settings.rings_per_level);
     let mut k = 0;
-    while k < 3 {
-        let s = 2u32 << k;
+    while k < MAX_DENSITY {
+        let s = 2u32 << k; // the stride of density k + 1
         let rings_ok = m.is_multiple_of(s) && m / s >= 2;
-        let steps_ok = n.is_multiple_of(s * 2 * settings.sectors);
+        let steps_ok = n.is_multiple_of(s * settings.sectors) && (n / s).is_multiple_of(2);
         if !(rings_ok && steps_ok) {
             break;
         }
@@ -101,6 +102,10 @@ pub fn max_density(settings: &ClipmapSettings) -> u32 {
     }
     k
 }
+
+/// A bound on the densities built, so that the index ranges per level stay few: density 5
+/// already draws 1/1024 of a level's full-density triangles.
+pub const MAX_DENSITY: u32 = 5;
 
 impl RingMesh {
     /// Builds the mesh for validated settings.
@@ -500,16 +505,32 @@ mod tests {
     /// the outer and inner rings are cut into exactly n/2^kb segments.
     #[test]
     fn every_density_combination_is_watertight() {
-        let s = dense();
-        let mesh = RingMesh::build(&s);
-        assert_eq!(mesh.max_density, 3);
+        watertight(&dense(), 3);
+        // Densities 4 and 5 (2 rings of 2^k, one φ̃ step per sector at the coarsest).
+        watertight(
+            &ClipmapSettings {
+                phi_steps: 256,
+                rings_per_level: 64,
+                levels: 3,
+                sectors: 4,
+                ..Default::default()
+            },
+            5,
+        );
+    }
+
+    fn watertight(s: &ClipmapSettings, max_density: u32) {
+        let mesh = RingMesh::build(s);
+        assert_eq!(mesh.max_density, max_density);
         let n = s.phi_steps;
         let m = s.rings_per_level;
         let level = 2;
-        let ring_of = |k: &Key| {
-            let v = mesh.vertices.iter().find(|v| key(v) == *k).unwrap();
-            (v.ring_t * m as f32).round() as u32
-        };
+        let rings: HashMap<Key, u32> = mesh
+            .vertices
+            .iter()
+            .map(|v| (key(v), (v.ring_t * m as f32).round() as u32))
+            .collect();
+        let ring_of = |k: &Key| rings[k];
         for k in 0..=mesh.max_density {
             let lr = &mesh.levels[level][k as usize];
             for ko in k..=mesh.max_density {

@@ -69,7 +69,8 @@ pub struct ClipmapSettings {
     /// `transform` is `Approximate`. The paper used 10; see README for our measurement.
     pub approx_start_level: u32,
     /// Target on-screen spacing of the mesh's vertices in pixels: each level is drawn at the
-    /// coarsest ring density (every 2^k-th φ̃ step and ring, k ≤ 3) whose vertices stay this
+    /// coarsest ring density (every 2^k-th φ̃ step and ring, k ≤ 4 at
+    /// the default n, m and sectors: `clipmap::mesh::max_density`) whose vertices stay this
     /// close (`clipmap::density`). 0: every level at full density (the paper's mesh).
     pub target_spacing_px: f32,
 }
