@@ -414,3 +414,49 @@ fn corrupt_or_changed_pyramid_files_are_reported_not_fatal() {
     let err = copy.pyramid().verify().unwrap_err();
     assert!(err.to_string().contains("grew"), "{err}");
 }
+
+/// Regression: a settled frame is the frame the view keeps. Tiles wanted only for the culling
+/// bounds do not hold a frame back, and the culling runs after the frame's feed update, so a
+/// frame whose bounds fell back to a coarser level still counted as settled: `north-pole`,
+/// with reads 0–300 ms late, settled on 548 sectors and the next frame at rest drew 172.
+/// Settling now waits (briefly) for those tiles too.
+#[test]
+fn a_settled_view_draws_what_the_next_frame_at_rest_draws() {
+    let Some((ctx, _guard)) = common::gpu() else {
+        return;
+    };
+    let terrain = Terrain::embedded_earth().unwrap();
+    for (scene, latency_max_ms) in [("north-pole", 300), ("north-pole", 0), ("ground", 300)] {
+        let stream = StreamSettings {
+            faults: FaultSettings {
+                latency_ms: 0,
+                latency_max_ms,
+                fail_rate: 0.0,
+                seed: 0x5EED,
+            },
+            ..StreamSettings::default()
+        };
+        let mut r = TerrainRenderer::with_streaming(
+            &ctx.device,
+            ClipmapSettings::default(),
+            terrain.clone(),
+            COLOR_FORMAT,
+            stream,
+        )
+        .unwrap();
+        let camera = Scene::by_name(scene)
+            .unwrap()
+            .camera(|lat, lon| r.terrain_height_m(lat, lon));
+        let settled = common::render(ctx, &mut r, &camera, 320, 180);
+        let again = common::render(ctx, &mut r, &camera, 320, 180);
+        assert_eq!(
+            settled.info.draw, again.info.draw,
+            "{scene}, reads up to {latency_max_ms} ms late: settled on {} triangles, then drew {}",
+            settled.info.draw.triangles, again.info.draw.triangles
+        );
+        assert!(
+            settled.rgba == again.rgba,
+            "{scene}, reads up to {latency_max_ms} ms late: the image changed after settling"
+        );
+    }
+}

@@ -283,6 +283,13 @@ impl DemFeed {
         0.0
     }
 
+    /// Whether a CPU query (camera height, culling bounds) missed a tile since the last
+    /// [`DemFeed::update`]: the frame's culling, which runs after the update, used a coarser
+    /// level's bounds.
+    pub fn queries_missed(&self) -> bool {
+        !self.aux_missing.borrow().is_empty()
+    }
+
     /// Terrain bounds within `angle_rad` of `u` (culling): from the level that
     /// `DemTerrain::height_bounds_near_m` uses when its tiles are here, else from a coarser
     /// level (its min/max bound every finer sample), else the global range.

@@ -59,6 +59,10 @@ pub struct FrameInfo {
     pub planar: Option<PlanarDraw>,
 }
 
+/// How long [`TerrainRenderer::settle_or_explain`] waits, once a frame is settled, for the
+/// tiles only its culling bounds still lack.
+const SETTLE_BOUNDS_GRACE: std::time::Duration = std::time::Duration::from_secs(2);
+
 impl FrameInfo {
     /// True when nothing this view needs is still on its way (always, for the analytic
     /// planet, which the GPU evaluates itself), planar patches' errors included.
@@ -989,6 +993,7 @@ impl TerrainRenderer {
         timeout: std::time::Duration,
     ) -> Result<(), RenderError> {
         let deadline = std::time::Instant::now() + timeout;
+        let mut first_settled = None;
         loop {
             let mut encoder = ctx
                 .device
@@ -998,7 +1003,22 @@ impl TerrainRenderer {
             let info = self.prepare(&ctx.queue, &mut encoder, camera, width_px, height_px);
             ctx.queue.submit([encoder.finish()]);
             if info.settled() {
-                return Ok(());
+                // A settled frame may still lack tiles wanted only for the culling bounds: its
+                // image is whole, but with the tighter bounds the next frame culls other
+                // sectors (`north-pole`, one run in six: 17 984 triangles, then 10 486). Wait a little for them, so that the frame settled is the
+                // one the view keeps; a budget too small to hold them costs only the grace.
+                let now = std::time::Instant::now();
+                let settled_at = *first_settled.get_or_insert(now);
+                // The frame's culling runs after its feed update: its misses show only here.
+                let bounds_missing = info.stream.as_ref().is_some_and(|s| s.tiles_missing > 0)
+                    || self.feed.as_ref().is_some_and(DemFeed::queries_missed);
+                if !bounds_missing || now >= deadline.min(settled_at + SETTLE_BOUNDS_GRACE) {
+                    return Ok(());
+                }
+                if let Some(feed) = &mut self.feed {
+                    feed.wait_for_tile(std::time::Duration::from_millis(50));
+                }
+                continue;
             }
             // The levels wanted follow the camera's height: final once it is no stand-in.
             if let Some(short) = info.stream.as_ref().and_then(|s| s.gpu_tiles_short)
