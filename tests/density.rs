@@ -100,13 +100,17 @@ fn a_completed_morph_switches_density_without_moving_the_surface() {
 
 /// Halving the frame halves every level's on-screen spacing: `space` drops a density on its
 /// large levels and draws about a quarter of the triangles, until its levels reach the
-/// coarsest density (n/8 × m/8), where the count stops falling.
+/// coarsest density (n/16 × m/16 at the default mesh), where the count stops falling. With the
+/// detail on (the default), as here: from space its octaves are far below a pixel, so they do
+/// not hold the levels at density 3 (`plan::clipmap::detail_density_caps`).
 #[test]
 fn triangles_follow_the_frame_size() {
     let Some((ctx, _guard)) = common::gpu() else {
         return;
     };
-    let terrain = Terrain::embedded_earth().unwrap();
+    let terrain = Terrain::embedded_earth()
+        .unwrap()
+        .with_detail(Some(globe::procedural::DetailParams::default()));
     let scene = Scene::by_name("space").unwrap();
     let camera = scene.camera(|lat, lon| terrain.height_at_lat_lon_m(lat, lon));
     let mut counts = Vec::new();
@@ -136,5 +140,5 @@ fn triangles_follow_the_frame_size() {
     // The default sits near that floor at 1080p: fewer triangles than budget 2, and still
     // fewer at half the size.
     assert!(counts[0].0 < counts[1].0 / 2);
-    assert!(counts[0].1 < 0.5, "ratio {}", counts[0].1);
+    assert!(counts[0].1 < 0.35, "ratio {}", counts[0].1);
 }

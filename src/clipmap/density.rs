@@ -50,7 +50,7 @@ pub struct ScreenScale {
 impl ScreenScale {
     /// Distance from the eye to the surface point at view angle θ̃ (on a sphere through the
     /// ground under the eye), without cancellation: d² = (a − g)² + 2(R+a)(R+g)(1 − cos θ̃).
-    fn distance_m(&self, theta: f64) -> f64 {
+    pub fn distance_m(&self, theta: f64) -> f64 {
         let (r_eye, r_ground) = (
             self.radius_m + self.altitude_m,
             self.radius_m + self.ground_m,
@@ -82,19 +82,76 @@ impl ScreenScale {
 /// The density of a level whose full-density vertices lie `spacing_px` apart, for a target of
 /// `target_px` and densities 0..=max_k.
 pub fn density_for(spacing_px: f64, target_px: f64, max_k: u32) -> Density {
+    density_within(
+        spacing_px,
+        target_px,
+        DensityCap {
+            k: max_k,
+            morph: 0.0,
+        },
+    )
+}
+
+/// The coarsest density a level may take, and how far its vertices may move toward the next
+/// one (so that a cap that changes with the view moves the surface continuously).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DensityCap {
+    pub k: u32,
+    /// 0..1: the morph toward density k + 1 allowed at density k (0 at the mesh's coarsest).
+    pub morph: f32,
+}
+
+/// [`density_for`] under `cap`.
+pub fn density_within(spacing_px: f64, target_px: f64, cap: DensityCap) -> Density {
     let d = (target_px / spacing_px.max(1e-12)).log2();
     if !d.is_finite() || d <= 0.0 {
         return Density::default();
     }
-    let k = (d.floor() as u32).min(max_k);
-    if k == max_k {
-        return Density { k, morph: 0.0 };
+    let want = d.floor() as u32;
+    let frac = d - want as f64;
+    let morph = ((frac - 0.5) * 2.0).clamp(0.0, 1.0) as f32;
+    match want.cmp(&cap.k) {
+        std::cmp::Ordering::Less => Density { k: want, morph },
+        std::cmp::Ordering::Equal => Density {
+            k: cap.k,
+            morph: morph.min(cap.morph),
+        },
+        std::cmp::Ordering::Greater => Density {
+            k: cap.k,
+            morph: cap.morph,
+        },
     }
-    let frac = d - k as f64;
-    Density {
-        k,
-        morph: ((frac - 0.5) * 2.0).clamp(0.0, 1.0) as f32,
+}
+
+/// How coarse a level's vertices may be against the finest detail octave its texture holds as
+/// geometry (cells of at least κ·s at distance s, `procedural`): at most this many of those
+/// cells between two neighbouring vertices, along and across rings.
+///
+/// Measured (`tests/detail_render.rs`, 96×54, camera 0.1 m above the detail, default mesh):
+/// density 3 (1.27 cells across rings) gives p99 ρ 0.64 / 0.12 / 0.21 / 0.59 px at the north
+/// pole, the south pole, the antimeridian and Garda; density 4 (2.34 cells) gave 1.30 / 0.22 /
+/// 0.33 / 1.31 px, past the 1 px the default must keep. The screen-space spacing rule alone
+/// cannot see this: on a small image every level there is far below the target spacing.
+pub const MAX_DETAIL_CELLS_PER_SPACING: f64 = 1.5;
+
+/// The coarsest density whose vertices stay within [`MAX_DETAIL_CELLS_PER_SPACING`] cells of
+/// the finest geometric detail octave (κ = `geometry_cut`) at every distance s: both the
+/// spacing (along rings s·2π·2^k/n, across s·(1 − 2^(−2^k/m))) and the cell (κ·s) grow with
+/// s, so the bound is the same for every level.
+pub fn detail_density_cap(settings: &ClipmapSettings, geometry_cut: f64, max_k: u32) -> u32 {
+    let n = settings.phi_steps as f64;
+    let m = settings.rings_per_level as f64;
+    let mut k = 0;
+    while k < max_k {
+        let s = f64::from(2u32 << k); // the stride of density k + 1
+        let along = std::f64::consts::TAU * s / n;
+        let across = 1.0 - (-s / m).exp2();
+        if along.max(across) / geometry_cut > MAX_DETAIL_CELLS_PER_SPACING {
+            break;
+        }
+        k += 1;
     }
+    k
 }
 
 /// The densities of every level of one frame (indexed by level; levels not drawn keep the
@@ -113,12 +170,12 @@ impl DensityPlan {
     }
 
     /// Densities of the drawn levels of `selection` for a target vertex spacing of
-    /// `settings.target_spacing_px` pixels.
+    /// `settings.target_spacing_px` pixels, level l no coarser than `cap(l)`.
     pub fn new(
         scale: &ScreenScale,
         selection: &LevelSelection,
         settings: &ClipmapSettings,
-        max_k: u32,
+        cap: impl Fn(u32) -> DensityCap,
     ) -> Self {
         let mut plan = Self::full(settings.levels);
         if settings.target_spacing_px <= 0.0 {
@@ -127,7 +184,7 @@ impl DensityPlan {
         let target = settings.target_spacing_px as f64;
         let body: Vec<Density> = selection
             .drawn_levels()
-            .map(|l| density_for(scale.full_density_spacing_px(l, settings), target, max_k))
+            .map(|l| density_within(scale.full_density_spacing_px(l, settings), target, cap(l)))
             .collect();
         plan.set_drawn(selection, &body);
         plan
@@ -180,6 +237,38 @@ mod tests {
         let d = density_for(4.0 / (2.0 - 1e-9f64).exp2(), 4.0, 3);
         assert_eq!(d.k, 1);
         assert!(d.morph > 0.999);
+    }
+
+    /// A cap holds the level at its density, morphed no further than the cap allows: the
+    /// surface then moves continuously as the cap itself slides.
+    #[test]
+    fn a_cap_limits_density_and_morph() {
+        let cap = DensityCap { k: 2, morph: 0.25 };
+        // Far finer than the target: the cap's density and morph.
+        assert_eq!(
+            density_within(0.001, 4.0, cap),
+            Density { k: 2, morph: 0.25 }
+        );
+        // At the cap's density, three quarters along: the spacing's morph (0.5), capped.
+        let d = density_within(4.0 / 2.75f64.exp2(), 4.0, cap);
+        assert_eq!((d.k, d.morph), (2, 0.25));
+        // Below the cap: the cap does not matter.
+        let d = density_within(4.0 / 1.75f64.exp2(), 4.0, cap);
+        assert_eq!(d.k, 1);
+        assert!((d.morph - 0.5).abs() < 1e-6);
+    }
+
+    /// With the default mesh and κ = 1/8, levels holding detail geometry stop at density 3
+    /// (1.27 finest cells between vertices across rings; density 4 would put 2.34).
+    #[test]
+    fn detail_geometry_caps_the_density() {
+        let settings = ClipmapSettings::default();
+        assert_eq!(detail_density_cap(&settings, 0.125, 4), 3);
+        assert_eq!(detail_density_cap(&settings, 0.125, 2), 2);
+        // A coarser geometry cut (larger cells at each distance) allows coarser meshes.
+        assert_eq!(detail_density_cap(&settings, 0.5, 4), 4);
+        // A finer one allows fewer.
+        assert!(detail_density_cap(&settings, 0.03, 4) < 3);
     }
 
     /// From space the levels around the nadir shrink by half each: the finer the level the

@@ -10,12 +10,13 @@
 
 use std::f64::consts::PI;
 
-use crate::clipmap::density::{Density, DensityPlan, ScreenScale};
+use crate::clipmap::density::{Density, DensityCap, DensityPlan, ScreenScale, detail_density_cap};
 use crate::clipmap::levels::{GridRect, LevelGrid};
 use crate::clipmap::selection::{DrawList, LevelSelection, PlanarCut, SectorBounds};
 use crate::clipmap::settings::level_outer_theta_rad;
 use crate::clipmap::{ClipmapSettings, RingMesh};
 use crate::geo::visibility;
+use crate::procedural::Detail;
 
 use super::{TerrainQuery, ViewPlan};
 
@@ -51,6 +52,10 @@ pub struct ClipmapPlan {
     /// Test hook: changes each drawn level's density (given the mesh's coarsest) after the
     /// plan chose it (`tests/density.rs` compares a morphed density with the next one).
     pub density_map: Option<DensityMap>,
+    /// The coarsest density each level may take (indexed by level; None: the mesh's coarsest
+    /// everywhere). The renderer caps the levels whose textures hold detail geometry
+    /// (`clipmap::density::detail_density_cap`).
+    pub density_caps: Option<Vec<DensityCap>>,
     /// The angle around the viewer a planar LOD method covers wholly (0: none). Levels inside
     /// it are filled (the planar method samples them) but not drawn; the cap of the finest
     /// level drawn covers the hole, under the planar method's square.
@@ -125,6 +130,7 @@ impl ClipmapPlan {
             approx_start_level: approx_ok.then_some(settings.approx_start_level),
             densities: DensityPlan::full(settings.levels),
             density_map: None,
+            density_caps: None,
             covered_rad: 0.0,
             cut_rad: 0.0,
         }
@@ -164,18 +170,23 @@ impl ClipmapPlan {
         query: &dyn TerrainQuery,
         draw_all_sectors: bool,
     ) {
-        let scale = ScreenScale {
-            radius_m: view.radius_m,
-            altitude_m: view.camera.altitude_m,
-            ground_m: view.camera.altitude_m - view.height_above_terrain_m,
-            focal_px: view.height_px as f64 / (2.0 * (0.5 * view.fov_y_rad).tan()),
+        let scale = screen_scale(view);
+        let caps = self.density_caps.as_deref();
+        let cap = |l: u32| {
+            let mesh_cap = DensityCap {
+                k: mesh.max_density,
+                morph: 0.0,
+            };
+            caps.and_then(|c| c.get(l as usize)).map_or(mesh_cap, |&c| {
+                if c.k < mesh.max_density { c } else { mesh_cap }
+            })
         };
-        self.densities = DensityPlan::new(&scale, &self.selection, settings, mesh.max_density);
+        self.densities = DensityPlan::new(&scale, &self.selection, settings, cap);
         if let Some(map) = self.density_map {
             let body: Vec<Density> = self
                 .selection
                 .drawn_levels()
-                .map(|l| (map.0)(l, self.densities.levels[l as usize].body, mesh.max_density))
+                .map(|l| (map.0)(l, self.densities.levels[l as usize].body, cap(l).k))
                 .collect();
             self.densities.set_drawn(&self.selection, &body);
         }
@@ -218,4 +229,64 @@ impl ClipmapPlan {
     pub fn texels_to_fill(&self) -> u64 {
         self.fills.iter().map(LevelFill::texels).sum()
     }
+}
+
+/// What the density rule needs to know of a view to size its levels on screen.
+pub fn screen_scale(view: &ViewPlan) -> ScreenScale {
+    ScreenScale {
+        radius_m: view.radius_m,
+        altitude_m: view.camera.altitude_m,
+        ground_m: view.camera.altitude_m - view.height_above_terrain_m,
+        focal_px: view.height_px as f64 / (2.0 * (0.5 * view.fov_y_rad).tan()),
+    }
+}
+
+/// How large on screen a level's finest geometric detail octave may be and still lie between
+/// vertices coarser than the detail allows: twice this (half a pixel, against the 1 px p99 the
+/// default keeps) holds the level at `detail_density_cap`, each halving below it frees one
+/// density more ([`detail_density_caps`]).
+pub const DETAIL_OCTAVE_VISIBLE_PX: f64 = 0.25;
+
+/// The coarsest density of every level (indexed by level) over `detail`. A level's finest
+/// geometric octave, at its largest amplitude σ_max·(1 + g_h)·a_k over the level's nearest
+/// distance, spans `px` pixels. From 2·[`DETAIL_OCTAVE_VISIBLE_PX`] up it could show between
+/// the vertices, and the level keeps enough vertices per octave cell
+/// (`clipmap::density::detail_density_cap`); each halving of `px` below that allows one
+/// density more, morphing continuously toward it, up to the mesh's coarsest (every level seen
+/// from space).
+pub fn detail_density_caps(
+    detail: &Detail,
+    settings: &ClipmapSettings,
+    max_k: u32,
+    scale: &ScreenScale,
+) -> Vec<DensityCap> {
+    let params = detail.params();
+    let cap = detail_density_cap(settings, params.geometry_cut, max_k);
+    let sigma_m = params.amplitude_max_m * (1.0 + params.height_roughness);
+    let blend = settings.blend_fraction as f64;
+    let free = DensityCap {
+        k: max_k,
+        morph: 0.0,
+    };
+    (0..settings.levels)
+        .map(|l| {
+            let o = detail.level_octaves(l, blend);
+            let end = (o.full + o.partial) as usize;
+            let Some(finest) = end.checked_sub(1).and_then(|k| detail.octaves().get(k)) else {
+                return free;
+            };
+            // The level's nearest point: its inner edge (θ̃ grows outward).
+            let inner = level_outer_theta_rad(l) * 0.5;
+            let px =
+                sigma_m * finest.amplitude * scale.focal_px / scale.distance_m(inner).max(1e-9);
+            let c = cap as f64 + (1.0 + (DETAIL_OCTAVE_VISIBLE_PX / px).log2()).max(0.0);
+            if !c.is_finite() || c >= max_k as f64 {
+                return free;
+            }
+            DensityCap {
+                k: c.floor() as u32,
+                morph: c.fract() as f32,
+            }
+        })
+        .collect()
 }

@@ -1185,6 +1185,14 @@ impl TerrainRenderer {
 
         clipmap.limit_to_held(&self.grids);
         clipmap.density_map = self.density_map;
+        clipmap.density_caps = self.terrain.detail().map(|d| {
+            crate::plan::clipmap::detail_density_caps(
+                d,
+                &self.settings,
+                self.mesh.max_density,
+                &crate::plan::clipmap::screen_scale(&view),
+            )
+        });
         clipmap.cull(
             &view,
             &self.settings,
