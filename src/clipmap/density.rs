@@ -77,7 +77,70 @@ impl ScreenScale {
             })
             .fold(0.0, f64::max)
     }
+
+    /// How far (pixels) the chords of `level` at density k sag below the sphere: a chord of
+    /// length d lies up to d²/(8R) inside it, shown whole where the surface turns away (the
+    /// planet's limb), over the distance from the eye; the largest over the level.
+    pub fn sag_px(&self, level: u32, settings: &ClipmapSettings, k: u32) -> f64 {
+        let outer = level_outer_theta_rad(level);
+        let n = settings.phi_steps as f64;
+        let m = settings.rings_per_level as f64;
+        let s = f64::from(1u32 << k);
+        let across = 1.0 - (-s / m).exp2();
+        (0..=8)
+            .map(|i| {
+                let theta = outer * (-(i as f64) / 8.0).exp2();
+                let along_ring = theta.sin() * std::f64::consts::TAU * s / n;
+                let chord_m = self.radius_m * along_ring.max(theta * across);
+                let sag_m = chord_m * chord_m / (8.0 * self.radius_m);
+                sag_m / self.distance_m(theta).max(1e-9) * self.focal_px
+            })
+            .fold(0.0, f64::max)
+    }
+
+    /// The coarsest density of `level` whose chords sag at most `limit_px` (see
+    /// [`ScreenScale::sag_px`]), with the morph toward the next one that takes the sag to the
+    /// limit, so that the cap slides continuously as the view moves.
+    pub fn sag_cap(
+        &self,
+        level: u32,
+        settings: &ClipmapSettings,
+        limit_px: f64,
+        max_k: u32,
+    ) -> DensityCap {
+        let mut sag = self.sag_px(level, settings, 0);
+        for k in 0..max_k {
+            let next = self.sag_px(level, settings, k + 1);
+            if next > limit_px {
+                // A morph m puts the surface about (1 − m) of the way from density k + 1's
+                // chords to density k's: the sag grows linearly with it.
+                let morph = ((limit_px - sag) / (next - sag)).clamp(0.0, 1.0) as f32;
+                return DensityCap { k, morph };
+            }
+            sag = next;
+        }
+        DensityCap {
+            k: max_k,
+            morph: 0.0,
+        }
+    }
 }
+
+/// The coarsest density of the coarsest drawn level, the one holding the horizon. There the
+/// per-vertex haze changes fastest (rays grazing the limb), and a linear blend of it over
+/// larger triangles shows: `space` at 192×108 with that level morphing toward density 4 drew a
+/// bright ring along the limb, 488 pixels off the full-density frame by more than 8/255; with
+/// this cap 224 (no ring), and 136 with every level at density 3. From 480×270 up the level's
+/// spacing keeps it at density 2 or finer anyway, so the cap changes nothing there.
+pub const HORIZON_MAX_DENSITY: u32 = 3;
+
+/// How far a level's chords may sag below the sphere on screen, as a fraction of the target
+/// vertex spacing: 0.3 px at the default 20 px (what density 2 sags at `space` 960×540 and
+/// density 3 at 192×108), so that the planet's limb stays within a third of a pixel of the
+/// sphere's. The spacing rule alone let `space` at 192×108 take density 4
+/// on its outermost level, whose chords across rings then cut 0.7 px into the limb (96
+/// coverage mismatches against the reference ray caster, 6 % of the disk's pixels).
+pub const SAG_PER_SPACING: f64 = 0.015;
 
 /// The density of a level whose full-density vertices lie `spacing_px` apart, for a target of
 /// `target_px` and densities 0..=max_k.
@@ -170,7 +233,8 @@ impl DensityPlan {
     }
 
     /// Densities of the drawn levels of `selection` for a target vertex spacing of
-    /// `settings.target_spacing_px` pixels, level l no coarser than `cap(l)`.
+    /// `settings.target_spacing_px` pixels, level l no coarser than `cap(l)` nor than its
+    /// chords' sag allows ([`SAG_PER_SPACING`]).
     pub fn new(
         scale: &ScreenScale,
         selection: &LevelSelection,
@@ -184,7 +248,22 @@ impl DensityPlan {
         let target = settings.target_spacing_px as f64;
         let body: Vec<Density> = selection
             .drawn_levels()
-            .map(|l| density_within(scale.full_density_spacing_px(l, settings), target, cap(l)))
+            .map(|l| {
+                let mut given = cap(l);
+                if l == selection.coarsest && given.k > HORIZON_MAX_DENSITY {
+                    given = DensityCap {
+                        k: HORIZON_MAX_DENSITY,
+                        morph: 0.0,
+                    };
+                }
+                let sag = scale.sag_cap(l, settings, target * SAG_PER_SPACING, given.k);
+                let tighter = if sag.k as f32 + sag.morph < given.k as f32 + given.morph {
+                    sag
+                } else {
+                    given
+                };
+                density_within(scale.full_density_spacing_px(l, settings), target, tighter)
+            })
             .collect();
         plan.set_drawn(selection, &body);
         plan
@@ -256,6 +335,31 @@ mod tests {
         let d = density_within(4.0 / 1.75f64.exp2(), 4.0, cap);
         assert_eq!(d.k, 1);
         assert!((d.morph - 0.5).abs() < 1e-6);
+    }
+
+    /// From space on a small image the outermost levels' chords would cut into the limb: the
+    /// sag holds them finer, and leaves the small levels around the nadir alone.
+    #[test]
+    fn the_limb_holds_the_outer_levels() {
+        let settings = ClipmapSettings::default();
+        let scale = ScreenScale {
+            radius_m: 6.371e6,
+            altitude_m: 2.0e7,
+            ground_m: 0.0,
+            focal_px: 108.0 / (2.0 * (30f64.to_radians()).tan()),
+        };
+        let limit = 0.5;
+        assert!(scale.sag_px(1, &settings, 4) > limit);
+        let cap = scale.sag_cap(1, &settings, limit, 4);
+        assert!(cap.k < 4 && (0.0..=1.0).contains(&cap.morph), "{cap:?}");
+        assert!(scale.sag_px(1, &settings, cap.k) <= limit);
+        assert_eq!(
+            scale.sag_cap(6, &settings, limit, 4),
+            DensityCap { k: 4, morph: 0.0 }
+        );
+        // Sag grows fourfold per density (both chords double), a little less across rings.
+        let ratio = scale.sag_px(6, &settings, 3) / scale.sag_px(6, &settings, 2);
+        assert!((3.0..=4.01).contains(&ratio), "{ratio}");
     }
 
     /// With the default mesh and κ = 1/8, levels holding detail geometry stop at density 3
