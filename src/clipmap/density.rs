@@ -126,13 +126,28 @@ impl ScreenScale {
     }
 }
 
-/// The coarsest density of the coarsest drawn level, the one holding the horizon. There the
+/// The coarsest density of the level holding the horizon (see [`horizon_cap`]). There the
 /// per-vertex haze changes fastest (rays grazing the limb), and a linear blend of it over
 /// larger triangles shows: `space` at 192×108 with that level morphing toward density 4 drew a
 /// bright ring along the limb, 488 pixels off the full-density frame by more than 8/255; with
-/// this cap 224 (no ring), and 136 with every level at density 3. From 480×270 up the level's
+/// this cap 143 (no ring), and 136 with every level at density 3. From 480×270 up the level's
 /// spacing keeps it at density 2 or finer anyway, so the cap changes nothing there.
 pub const HORIZON_MAX_DENSITY: u32 = 3;
+
+/// The cap [`HORIZON_MAX_DENSITY`] puts on `level` with the horizon at θ̃ = `theta_max_rad`:
+/// whole on the level holding it, and sliding on the next finer one (morph toward the next
+/// density from 1, horizon at that level's outer edge doubled, to 0, horizon at its outer
+/// edge), so that a level taking over the horizon as the eye descends is already at the cap.
+pub fn horizon_cap(level: u32, theta_max_rad: f64) -> Option<DensityCap> {
+    let x = (level_outer_theta_rad(level) / theta_max_rad).log2();
+    if !x.is_finite() || x < -1.0 {
+        return None;
+    }
+    Some(DensityCap {
+        k: HORIZON_MAX_DENSITY,
+        morph: (-x).clamp(0.0, 1.0) as f32,
+    })
+}
 
 /// How far a level's chords may sag below the sphere on screen, as a fraction of the target
 /// vertex spacing: 0.3 px at the default 20 px (what density 2 sags at `space` 960×540 and
@@ -250,11 +265,10 @@ impl DensityPlan {
             .drawn_levels()
             .map(|l| {
                 let mut given = cap(l);
-                if l == selection.coarsest && given.k > HORIZON_MAX_DENSITY {
-                    given = DensityCap {
-                        k: HORIZON_MAX_DENSITY,
-                        morph: 0.0,
-                    };
+                if let Some(h) = horizon_cap(l, selection.theta_max_rad)
+                    && (h.k as f32 + h.morph) < (given.k as f32 + given.morph)
+                {
+                    given = h;
                 }
                 let sag = scale.sag_cap(l, settings, target * SAG_PER_SPACING, given.k);
                 let tighter = if sag.k as f32 + sag.morph < given.k as f32 + given.morph {
@@ -360,6 +374,21 @@ mod tests {
         // Sag grows fourfold per density (both chords double), a little less across rings.
         let ratio = scale.sag_px(6, &settings, 3) / scale.sag_px(6, &settings, 2);
         assert!((3.0..=4.01).contains(&ratio), "{ratio}");
+    }
+
+    /// The horizon's cap: whole on its level, sliding on the next finer one, none beyond.
+    #[test]
+    fn the_horizon_cap_slides_onto_the_next_level() {
+        let outer = level_outer_theta_rad(3);
+        // Horizon inside level 3 (θ̃ in (outer/2, outer]).
+        let h = 0.75 * outer;
+        assert_eq!(horizon_cap(3, h), Some(DensityCap { k: 3, morph: 0.0 }));
+        let next = horizon_cap(4, h).unwrap();
+        assert!((next.morph - (0.75f64 / 0.5).log2() as f32).abs() < 1e-6);
+        assert_eq!(horizon_cap(5, h), None);
+        // As the horizon reaches level 4's outer edge, level 4's morph reaches 0: continuous.
+        let at_edge = horizon_cap(4, level_outer_theta_rad(4) * (1.0 + 1e-9)).unwrap();
+        assert!(at_edge.morph < 1e-6);
     }
 
     /// With the default mesh and κ = 1/8, levels holding detail geometry stop at density 3
