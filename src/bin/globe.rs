@@ -139,8 +139,9 @@ struct MeshArgs {
     #[arg(long = "approx-start-level", value_name = "LEVEL", default_value_t = ClipmapSettings::default().approx_start_level)]
     approx_start_level: u32,
     /// Target on-screen spacing of the mesh's vertices in pixels: each level is drawn at the
-    /// coarsest ring density (n/2^k, m/2^k; k ≤ 4 at the default n and m) that keeps its vertices this close; 0 draws
-    /// every level at full density [default: from --error-budget, 5 × the budget].
+    /// coarsest ring density (n/2^k, m/2^k; k ≤ 4 at the default n and m) that keeps its
+    /// vertices this close; 0 draws every level at full density [default: from
+    /// --error-budget, 5 × the budget].
     #[arg(long = "vertex-spacing", value_name = "PX")]
     target_spacing_px: Option<f32>,
 }

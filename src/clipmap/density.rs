@@ -119,10 +119,7 @@ impl ScreenScale {
             }
             sag = next;
         }
-        DensityCap {
-            k: max_k,
-            morph: 0.0,
-        }
+        DensityCap::at_most(max_k)
     }
 }
 
@@ -160,14 +157,7 @@ pub const SAG_PER_SPACING: f64 = 0.015;
 /// The density of a level whose full-density vertices lie `spacing_px` apart, for a target of
 /// `target_px` and densities 0..=max_k.
 pub fn density_for(spacing_px: f64, target_px: f64, max_k: u32) -> Density {
-    density_within(
-        spacing_px,
-        target_px,
-        DensityCap {
-            k: max_k,
-            morph: 0.0,
-        },
-    )
+    density_within(spacing_px, target_px, DensityCap::at_most(max_k))
 }
 
 /// The coarsest density a level may take, and how far its vertices may move toward the next
@@ -177,6 +167,22 @@ pub struct DensityCap {
     pub k: u32,
     /// 0..1: the morph toward density k + 1 allowed at density k (0 at the mesh's coarsest).
     pub morph: f32,
+}
+
+impl DensityCap {
+    /// The mesh's coarsest density k, with nothing further to morph into.
+    pub fn at_most(k: u32) -> Self {
+        Self { k, morph: 0.0 }
+    }
+
+    /// The tighter of two caps (the one with less of the surface's coarsening allowed).
+    pub fn min(self, other: Self) -> Self {
+        if (other.k as f32 + other.morph) < (self.k as f32 + self.morph) {
+            other
+        } else {
+            self
+        }
+    }
 }
 
 /// [`density_for`] under `cap`.
@@ -265,18 +271,15 @@ impl DensityPlan {
             .drawn_levels()
             .map(|l| {
                 let mut given = cap(l);
-                if let Some(h) = horizon_cap(l, selection.theta_max_rad)
-                    && (h.k as f32 + h.morph) < (given.k as f32 + given.morph)
-                {
-                    given = h;
+                if let Some(h) = horizon_cap(l, selection.theta_max_rad) {
+                    given = given.min(h);
                 }
                 let sag = scale.sag_cap(l, settings, target * SAG_PER_SPACING, given.k);
-                let tighter = if sag.k as f32 + sag.morph < given.k as f32 + given.morph {
-                    sag
-                } else {
-                    given
-                };
-                density_within(scale.full_density_spacing_px(l, settings), target, tighter)
+                density_within(
+                    scale.full_density_spacing_px(l, settings),
+                    target,
+                    given.min(sag),
+                )
             })
             .collect();
         plan.set_drawn(selection, &body);

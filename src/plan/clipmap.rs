@@ -173,13 +173,9 @@ impl ClipmapPlan {
         let scale = screen_scale(view);
         let caps = self.density_caps.as_deref();
         let cap = |l: u32| {
-            let mesh_cap = DensityCap {
-                k: mesh.max_density,
-                morph: 0.0,
-            };
-            caps.and_then(|c| c.get(l as usize)).map_or(mesh_cap, |&c| {
-                if c.k < mesh.max_density { c } else { mesh_cap }
-            })
+            let mesh_cap = DensityCap::at_most(mesh.max_density);
+            caps.and_then(|c| c.get(l as usize))
+                .map_or(mesh_cap, |&c| mesh_cap.min(c))
         };
         self.densities = DensityPlan::new(&scale, &self.selection, settings, cap);
         if let Some(map) = self.density_map {
@@ -264,10 +260,7 @@ pub fn detail_density_caps(
     let cap = detail_density_cap(settings, params.geometry_cut, max_k);
     let sigma_m = params.amplitude_max_m * (1.0 + params.height_roughness);
     let blend = settings.blend_fraction as f64;
-    let free = DensityCap {
-        k: max_k,
-        morph: 0.0,
-    };
+    let free = DensityCap::at_most(max_k);
     (0..settings.levels)
         .map(|l| {
             let o = detail.level_octaves(l, blend);
