@@ -302,14 +302,7 @@ fn issue_10_a_camera_tile_evicted_from_the_cpu_cache_is_read_again() {
         cache_bytes: 3 << 20,
         ..StreamSettings::default()
     };
-    let mut r = TerrainRenderer::with_streaming(
-        &ctx.device,
-        ClipmapSettings::default(),
-        terrain.clone(),
-        COLOR_FORMAT,
-        stream,
-    )
-    .unwrap();
+    let mut r = streaming_renderer(ctx, terrain.clone(), stream);
     let camera = |name: &str| {
         Scene::by_name(name)
             .unwrap()
@@ -364,14 +357,7 @@ fn corrupt_or_changed_pyramid_files_are_reported_not_fatal() {
         retries: 1,
         ..StreamSettings::default()
     };
-    let mut r = TerrainRenderer::with_streaming(
-        &ctx.device,
-        ClipmapSettings::default(),
-        Terrain::dem_terrain(copy.clone()),
-        COLOR_FORMAT,
-        stream,
-    )
-    .unwrap();
+    let mut r = streaming_renderer(ctx, Terrain::dem_terrain(copy.clone()), stream);
     let settled = r.settle(ctx, &camera, 160, 90, Duration::from_secs(3));
     let frame = OffscreenFrame::new(&ctx.device, 160, 90)
         .render_now(ctx, &mut r, &camera)
@@ -436,14 +422,7 @@ fn a_settled_view_draws_what_the_next_frame_at_rest_draws() {
             },
             ..StreamSettings::default()
         };
-        let mut r = TerrainRenderer::with_streaming(
-            &ctx.device,
-            ClipmapSettings::default(),
-            terrain.clone(),
-            COLOR_FORMAT,
-            stream,
-        )
-        .unwrap();
+        let mut r = streaming_renderer(ctx, terrain.clone(), stream);
         let camera = Scene::by_name(scene)
             .unwrap()
             .camera(|lat, lon| r.terrain_height_m(lat, lon));
@@ -459,4 +438,20 @@ fn a_settled_view_draws_what_the_next_frame_at_rest_draws() {
             "{scene}, reads up to {latency_max_ms} ms late: the image changed after settling"
         );
     }
+}
+
+/// A renderer with the default mesh over `terrain`, its tiles streamed with `stream`.
+fn streaming_renderer(
+    ctx: &globe::render::GpuContext,
+    terrain: Terrain,
+    stream: StreamSettings,
+) -> TerrainRenderer {
+    TerrainRenderer::with_streaming(
+        &ctx.device,
+        ClipmapSettings::default(),
+        terrain,
+        COLOR_FORMAT,
+        stream,
+    )
+    .unwrap()
 }
