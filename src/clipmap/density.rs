@@ -154,12 +154,6 @@ pub fn horizon_cap(level: u32, theta_max_rad: f64) -> Option<DensityCap> {
 /// coverage mismatches against the reference ray caster, 6 % of the disk's pixels).
 pub const SAG_PER_SPACING: f64 = 0.015;
 
-/// The density of a level whose full-density vertices lie `spacing_px` apart, for a target of
-/// `target_px` and densities 0..=max_k.
-pub fn density_for(spacing_px: f64, target_px: f64, max_k: u32) -> Density {
-    density_within(spacing_px, target_px, DensityCap::at_most(max_k))
-}
-
 /// The coarsest density a level may take, and how far its vertices may move toward the next
 /// one (so that a cap that changes with the view moves the surface continuously).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -185,7 +179,8 @@ impl DensityCap {
     }
 }
 
-/// [`density_for`] under `cap`.
+/// The density of a level whose full-density vertices lie `spacing_px` apart, for a target of
+/// `target_px`, no coarser than `cap`.
 pub fn density_within(spacing_px: f64, target_px: f64, cap: DensityCap) -> Density {
     let d = (target_px / spacing_px.max(1e-12)).log2();
     if !d.is_finite() || d <= 0.0 {
@@ -317,6 +312,7 @@ mod tests {
 
     #[test]
     fn density_steps_and_morphs_continuously() {
+        let density_for = |s: f64, t: f64, k: u32| density_within(s, t, DensityCap::at_most(k));
         // Spacing equal to the target: full density, no morph.
         assert_eq!(density_for(4.0, 4.0, 3), Density { k: 0, morph: 0.0 });
         // Half the target: the next density starts, no morph yet.
