@@ -24,6 +24,10 @@ struct FillParams {
     layer: u32,
     size: u32,
     offset: vec2<u32>,  // the first texel, in grid steps from the reference point (the anchor)
+    ref_m: f32,         // the level's reference height: the texture holds h − ref_m
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
     waves: array<Wave, ANALYTIC_SCALES>,
 }
 
@@ -53,6 +57,6 @@ fn cs_main(@builtin(global_invocation_id) id: vec3<u32>) {
         h += w.omega_a.w * sa * sb;
     }
     let slot = (params.slot0 + id.xy) % vec2<u32>(params.size);
-    h += detail_texel(k, slot, params.layer);
+    h = (h - params.ref_m) + detail_texel(k, slot, params.layer);
     textureStore(out_heights, slot, params.layer, vec4<f32>(h, 0.0, 0.0, 0.0));
 }

@@ -26,9 +26,12 @@ struct DemFillParams {
     // Pole caps: rows from the outermost row to the pole (0: no cap) and the pole's height.
     cap_north: vec2<f32>,
     cap_south: vec2<f32>,
-    // metres = offset + quantum · code
+    // metres − ref = offset + quantum · code, ref the level's reference height (the texture
+    // holds h − ref: near the eye small numbers, whose f32 steps are fine)
     decode: vec2<f32>,
     offset: vec2<u32>,      // the first texel, in grid steps from base + frac (the anchor)
+    sea_m: f32,             // sea level − ref: outside a regional grid
+    _pad: u32,
 }
 
 @group(0) @binding(0) var<uniform> params: DemFillParams;
@@ -81,7 +84,7 @@ fn cs_main(@builtin(global_invocation_id) id: vec3<u32>) {
     let ri = params.base.y + i32(r_floor);
     let fc = c_rel - c_floor;
     let fr = r_rel - r_floor;
-    var h = 0.0;
+    var h = params.sea_m;
     var inside = true;
     if params.wraps == 0u {
         // Sea level outside a regional grid (its extents are the pixel edges).

@@ -33,9 +33,9 @@ struct NormalParams {
     pole_south: i32,      // job row of θ = π (−1: none)
     offset_x: u32,        // the first texel, in grid steps from the anchor (angles, trig)
     offset_y: u32,
+    ref_m: f32,           // the level's reference height: the texture holds h − ref_m
     _pad0: u32,
     _pad1: u32,
-    _pad2: u32,
 }
 
 @group(0) @binding(0) var<uniform> params: NormalParams;
@@ -89,7 +89,7 @@ fn cs_main(@builtin(global_invocation_id) id: vec3<u32>) {
     let up = vec3<f32>(st * cp, st * sp, ct);
     let e_theta = vec3<f32>(ct * cp, ct * sp, -st);
     let h0 = height_at(i, j);
-    let r = params.radius_m + h0.x + h0.y;
+    let r = params.radius_m + (params.ref_m + h0.x + h0.y);
     let chord_theta = 2.0 * r * sin_precise(dtheta);
     let s_theta = height_difference(height_at(i, j + 1), height_at(i, j - 1)) / chord_theta;
     var n: vec3<f32>;
@@ -109,5 +109,5 @@ fn cs_main(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     let slot = (params.slot0 + id.xy) % vec2<u32>(params.size);
     // w: the height, for the fragment's colour (f16 keeps metres; colour needs no more).
-    textureStore(out_normals, slot, params.layer, vec4<f32>(normalize(n), h0.x + h0.y));
+    textureStore(out_normals, slot, params.layer, vec4<f32>(normalize(n), (params.ref_m + h0.x) + h0.y));
 }

@@ -297,31 +297,28 @@ fn grid_vertex(index: u32) -> VertexOut {
     return out;
 }
 
-// The eye's height above R (f32 pair summed).
-fn eye_height() -> f32 {
-    return frame.eye_height_m + frame.eye_height_lo_m;
-}
-
 // The point `rel` metres from the eye as a direction from the planet's centre, placed.
 // |E + rel| with E = (0, 0, R + h_eye): the small terms kept apart so a metre near the eye
 // keeps its precision (only ratios of the big ones are used).
 fn rel_point(rel: vec3<f32>) -> PlanarPoint {
-    let zc = frame.radius_m + (eye_height() + rel.z);
+    let zc = frame.radius_m + (eye_altitude() + rel.z);
     let s2 = dot(rel.xy, rel.xy);
     let len = sqrt(zc * zc + s2);
     let omc = s2 / (len * (len + zc));
     return unit_point(vec3<f32>(rel.xy / len, 1.0 - omc), omc, atan2(sqrt(s2), zc));
 }
 
-// Height above R of the point `rel` from the eye: h_eye + rel.z + |rel.xy|²/(|E + rel| + zc).
+// Height of the point `rel` from the eye above the eye's altitude:
+// rel.z + |rel.xy|²/(|E + rel| + zc).
 fn rel_altitude(rel: vec3<f32>) -> f32 {
-    let zc = frame.radius_m + (eye_height() + rel.z);
+    let zc = frame.radius_m + (eye_altitude() + rel.z);
     let s2 = dot(rel.xy, rel.xy);
     let len = sqrt(zc * zc + s2);
-    return (eye_height() + rel.z) + s2 / (len + zc);
+    return rel.z + s2 / (len + zc);
 }
 
-// Clearance of the ray's point at t above the terrain function (negative: inside).
+// Clearance of the ray's point at t above the terrain function (negative: inside); both
+// heights relative to the eye's altitude.
 fn clearance(dir: vec3<f32>, t: f32) -> f32 {
     let rel = dir * t;
     return rel_altitude(rel) - rel_point(rel).at.h;
@@ -332,7 +329,7 @@ fn clearance(dir: vec3<f32>, t: f32) -> f32 {
 // c = |E|² − r² = (h_eye − h)(2R + h_eye + h), the near root c/(−b + √disc)).
 fn shell_interval(dir: vec3<f32>, lo: f32, hi: f32) -> vec2<f32> {
     let r = frame.radius_m;
-    let he = eye_height();
+    let he = eye_altitude();
     let b = (r + he) * dir.z;
     let c_hi = (he - hi) * (2.0 * r + he + hi);
     let disc_hi = b * b - c_hi;

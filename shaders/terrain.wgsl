@@ -55,9 +55,12 @@ struct LevelUniforms {
     morph: f32,
     outer_morph: f32,
     inner_morph: f32,
+    // The level's reference height minus the eye's altitude (f64, then f32): the texture holds
+    // h − ref (small near the eye, so f32 steps there stay far below a pixel), so a texel's
+    // height relative to the eye is what it holds plus this.
+    ref_eye_m: f32,
     _pad0: u32,
     _pad1: u32,
-    _pad2: u32,
 }
 
 // Rust twin: clipmap::RingVertex, buffer layout render::gpu_data::RING_VERTEX_ATTRIBUTES.
@@ -186,8 +189,9 @@ fn detail_lambda(theta_tilde: f32) -> f32 {
 }
 
 // Bilinear height of level `level` at map offset d = (Δφ, Δθ) from the viewer, with its
-// partial detail octaves weighted by λ (w_k = clamp(λ − k, 0, 1)). Manual filtering in f32
-// (hardware filtering quantises the weights to 8 bits, visible up close).
+// partial detail octaves weighted by λ (w_k = clamp(λ − k, 0, 1)), relative to the eye's
+// altitude. Manual filtering in f32 (hardware filtering quantises the weights to 8 bits,
+// visible up close).
 fn level_height(level: u32, d: vec2<f32>, lambda: f32) -> f32 {
     let g = levels[level];
     let x = d.x * g.inv_dphi + g.grid_x_viewer;
@@ -207,18 +211,23 @@ fn level_height(level: u32, d: vec2<f32>, lambda: f32) -> f32 {
     let h11 = textureLoad(heights, vec2<i32>(ix1, iy1), layer, 0).x;
     let h = mix(mix(h00, h10, fx), mix(h01, h11, fx), fy);
     if !DETAIL {
-        return h;
+        return h + g.ref_eye_m;
     }
     let k0 = f32(levels[level].detail_full);
     let w = clamp(vec4<f32>(lambda) - (vec4<f32>(k0) + vec4<f32>(0.0, 1.0, 2.0, 3.0)), vec4<f32>(0.0), vec4<f32>(1.0));
     if all(w == vec4<f32>(0.0)) {
-        return h;
+        return h + g.ref_eye_m;
     }
     let p00 = textureLoad(partials, vec2<i32>(ix0, iy0), layer, 0);
     let p10 = textureLoad(partials, vec2<i32>(ix1, iy0), layer, 0);
     let p01 = textureLoad(partials, vec2<i32>(ix0, iy1), layer, 0);
     let p11 = textureLoad(partials, vec2<i32>(ix1, iy1), layer, 0);
-    return h + dot(w, mix(mix(p00, p10, fx), mix(p01, p11, fx), fy));
+    return (h + dot(w, mix(mix(p00, p10, fx), mix(p01, p11, fx), fy))) + g.ref_eye_m;
+}
+
+// The eye's altitude above R (the f32 pair summed).
+fn eye_altitude() -> f32 {
+    return frame.eye_height_m + frame.eye_height_lo_m;
 }
 
 // Height of a point of level `level`, blended by `coarse_blend` into the next coarser level so
@@ -266,7 +275,8 @@ fn map_transform(p_tilde: vec3<f32>, seam_side: f32, level: u32, ring_t: f32) ->
     }
 }
 
-// A ring vertex placed on the terrain: map offset, coarse-level blend, height.
+// A ring vertex placed on the terrain: map offset, coarse-level blend, height relative to the
+// eye's altitude (h − h_eye).
 struct Placed {
     d: vec2<f32>,
     blend: f32,
@@ -281,7 +291,7 @@ fn place(p_tilde: vec3<f32>, seam_side: f32, level: u32, ring_t: f32, theta_tild
     if WATER {
         // The terrain function's water rule (terrain::with_water), per vertex before any
         // morph so that a morphing vertex moves onto the coarser edge exactly.
-        out.h = max(out.h, look.water_level_m);
+        out.h = max(out.h, (look.water_level_m - frame.eye_height_m) - frame.eye_height_lo_m);
     }
     return out;
 }
@@ -407,15 +417,16 @@ fn ring_vertex(v: RingVertex, index: u32) -> VertexOut {
     return out;
 }
 
-// A vertex at view direction p and height h, the rest of its placement given: the position
-// relative to the eye (the eye is at (0, 0, R + h_eye); z = (h − h_eye) − (R + h)·(1 − cos θ̃),
-// DESIGN.md) and the haze integrated toward it. Both LOD methods' vertex stages end here.
-fn placed_vertex(p: vec3<f32>, one_minus_cos: f32, h: f32, d: vec2<f32>, blend: f32, level: u32) -> VertexOut {
-    let r = frame.radius_m + h;
+// A vertex at view direction p and height h_eye above the eye's altitude (h − h_eye), the rest
+// of its placement given: the position relative to the eye (the eye is at (0, 0, R + h_eye);
+// z = (h − h_eye) − (R + h)·(1 − cos θ̃), DESIGN.md) and the haze integrated toward it. Both LOD
+// methods' vertex stages end here.
+fn placed_vertex(p: vec3<f32>, one_minus_cos: f32, h_eye: f32, d: vec2<f32>, blend: f32, level: u32) -> VertexOut {
+    let r = frame.radius_m + (eye_altitude() + h_eye);
     let rel = vec3<f32>(
         r * p.x,
         r * p.y,
-        ((h - frame.eye_height_m) - frame.eye_height_lo_m) - r * one_minus_cos,
+        h_eye - r * one_minus_cos,
     );
     var out: VertexOut;
     out.clip = frame.clip_from_view * vec4<f32>(rel, 1.0);

@@ -43,7 +43,8 @@ fn gpu_normals_match_the_f64_twin() {
             });
             let s = grid.size as i64;
             let period = grid.period_x();
-            // Heights relative to the texel's own (as the shader's differences are).
+            // Heights relative to the texel's own (as the shader's differences are; the texture
+            // holds h − grid.ref_m).
             let parts = |gx: i64, gy: i64| -> Option<(f64, f64)> {
                 let i = (gx - grid.gx0).rem_euclid(period);
                 let j = gy - grid.gy0;
@@ -61,7 +62,7 @@ fn gpu_normals_match_the_f64_twin() {
                     let (h0, p0) = parts(gx, gy).unwrap();
                     let height =
                         |x: i64, y: i64| parts(x, y).map_or(f64::NAN, |(h, p)| (h - h0) + (p - p0));
-                    let radius = terrain.radius_m() + h0 + p0;
+                    let radius = terrain.radius_m() + grid.ref_m + h0 + p0;
                     let want = texel_normal(&grid, gx, gy, radius, height);
                     if !want.is_finite() {
                         continue;

@@ -435,10 +435,12 @@ struct DemFillParamsWrongType {
     cap_south: [f32; 2],
     decode: [f32; 2],
     offset: [u32; 2],
+    sea_m: f32,
+    _pad: u32,
 }
 globe::gpu_struct!(DemFillParamsWrongType as "DemFillParams" {
     base, frac, step, slot0, extent, layer, size, page_base, tiles_x, cols, rows, tile_size,
-    wraps, cap_north, cap_south, decode, offset,
+    wraps, cap_north, cap_south, decode, offset, sea_m,
 });
 
 #[test]

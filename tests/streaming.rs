@@ -42,7 +42,7 @@ fn gpu_fill_from_tiles_matches_the_cpu_sampler() {
                 for i in (0..s).step_by(5) {
                     let (phi, theta) = grid.phi_theta_of(grid.gx0 + i, grid.gy0 + j);
                     let want = dem.height_band_limited_m(phi, theta, pl);
-                    let got = heights[(j * s + i) as usize] as f64;
+                    let got = heights[(j * s + i) as usize] as f64 + grid.ref_m;
                     let err = (got - want).abs();
                     if err > worst.0 {
                         worst = (err, level);

@@ -30,6 +30,10 @@ pub struct LevelGrid {
     /// the points across it).
     pub gy0: i64,
     pub size: u32,
+    /// The height the level's texture stores its heights from (metres, exact in f32): h − ref
+    /// keeps f32's relative precision near the eye, where absolute heights would step by
+    /// ulp(h) (0.5 mm at 4 km; [`reference_height_m`]). A new reference rewrites the level.
+    pub ref_m: f64,
 }
 
 /// A rectangle of grid points to (re)compute: columns gx0..gx0+width (modulo the φ period),
@@ -164,6 +168,15 @@ impl LevelGrid {
             gx0,
             gy0,
             size,
+            ref_m: 0.0,
+        }
+    }
+
+    /// The same grid storing heights from `ref_m` (rounded to f32, which the fills subtract).
+    pub fn with_reference(self, ref_m: f64) -> Self {
+        Self {
+            ref_m: ref_m as f32 as f64,
+            ..self
         }
     }
 
@@ -188,7 +201,11 @@ impl LevelGrid {
             height: self.size,
         }];
         let Some(old) = old else { return full };
-        if old.phi_pow != self.phi_pow || old.size != self.size || old.level != self.level {
+        if old.phi_pow != self.phi_pow
+            || old.size != self.size
+            || old.level != self.level
+            || old.ref_m != self.ref_m
+        {
             return full;
         }
         let period = self.period_x();
@@ -243,6 +260,45 @@ impl LevelGrid {
         }
         rects
     }
+}
+
+/// The reference height of level `level`'s texture for an eye `above_m` over ground at
+/// `ground_m` (a terrain within `range_m`). The texture holds h − ref, so what matters is that
+/// the heights it holds near the eye are small against the distance they are seen from, which
+/// is at least s = max(eye's height above ground, a quarter of the level's diameter d): within
+/// 16s of the ground their f32 steps stay below 2·10⁻⁶·s (a millimetre above a 4 km deep sea
+/// floor: 10⁻⁹ m steps, not 0.5 mm). The ideal reference is the ground truncated to a power of
+/// two q ≤ d, a function of the ground alone (so a camera that comes to rest over the ground
+/// it was filled for refills nothing); `held`, a moving camera's current one, is kept while
+/// within 16s of the ground (a descent refills nothing, a flight over hills a level once per
+/// 16 of its quarter-diameters of climb). Levels wider than 8 km keep 0 (absolute heights) for
+/// any ground within ±8 km.
+pub fn reference_height_m(
+    level: u32,
+    radius_m: f64,
+    ground_m: f64,
+    above_m: f64,
+    range_m: (f64, f64),
+    held: Option<f64>,
+) -> f64 {
+    let quarter_m = 0.5 * level_outer_theta_rad(level) * radius_m;
+    let s = above_m.max(0.0).max(quarter_m);
+    let g = ground_m.clamp(range_m.0.min(range_m.1), range_m.1.max(range_m.0));
+    if let Some(r) = held
+        && (g - r).abs() <= 16.0 * s
+    {
+        return r;
+    }
+    let q = (4.0 * quarter_m).log2().floor().exp2();
+    ((g / q).trunc() * q) as f32 as f64
+}
+
+/// Whether some ground within `range_m` gives level `level` a reference other than 0: the
+/// fine levels, whose fill must wait for the ground under the eye.
+pub fn reference_depends_on_ground(level: u32, radius_m: f64, range_m: (f64, f64)) -> bool {
+    [range_m.0, range_m.1]
+        .iter()
+        .any(|&g| reference_height_m(level, radius_m, g, 0.0, range_m, None) != 0.0)
 }
 
 #[cfg(test)]
@@ -359,6 +415,64 @@ mod tests {
             "crossing φ=0 refilled {texels} texels"
         );
         check_cover(&a, &b);
+    }
+
+    /// The reference a level stores its heights from: 0 for the coarse levels (absolute
+    /// heights, as before), near the ground under the eye for the fine ones (so a millimetre
+    /// above a 4 km deep sea floor the stored numbers are millimetres), exact in f32, kept
+    /// while the ground stays within 16s of it.
+    #[test]
+    fn the_reference_height_follows_the_ground_on_fine_levels_only() {
+        const R: f64 = 6_371_000.0;
+        let range = (-11_000.0, 9_000.0);
+        let ground = -4_257.395;
+        // Levels 39 km across and wider: q ≥ 8 km, so 0 for this ground.
+        for level in 0..=10 {
+            assert_eq!(reference_height_m(level, R, ground, 1.0, range, None), 0.0);
+        }
+        for (level, above) in [(16, 1.0), (20, 2.0), (25, 0.5), (29, 0.001), (34, 0.001)] {
+            let quarter = 0.5 * level_outer_theta_rad(level) * R;
+            let s = f64::max(above, quarter);
+            let r = reference_height_m(level, R, ground, above, range, None);
+            assert_eq!(r, r as f32 as f64);
+            assert!(
+                (r - ground).abs() <= 4.0 * quarter,
+                "level {level}: {r} for {ground}"
+            );
+            // What the level stores near the eye: f32 steps far below what a pixel there spans.
+            let stored = ((ground - r) as f32).abs();
+            let step = f32::from_bits(stored.to_bits() + 1) - stored;
+            assert!((step as f64) < 1e-6 * s, "level {level}: f32 step {step} m");
+        }
+        // Hysteresis: kept within 16s of the ground, replaced beyond.
+        let (level, above) = (25, 0.5);
+        let s = f64::max(above, 0.5 * level_outer_theta_rad(level) * R);
+        let held = reference_height_m(level, R, ground, above, range, None);
+        let kept = |g: f64| reference_height_m(level, R, g, above, range, Some(held));
+        assert_eq!(kept(held + 15.9 * s), held);
+        assert_ne!(kept(held + 16.1 * s), held);
+        // The ideal depends on the ground alone: a descent over it keeps the reference, and
+        // the camera at rest takes the one it was filled with.
+        let high = reference_height_m(level, R, ground, 100.0, range, None);
+        assert_eq!(
+            reference_height_m(level, R, ground, 0.001, range, Some(high)),
+            high
+        );
+        assert_eq!(
+            reference_height_m(level, R, ground, 0.001, range, None),
+            high
+        );
+    }
+
+    /// A new reference rewrites the whole level (its texels hold h − ref).
+    #[test]
+    fn a_new_reference_refills_the_level() {
+        let a = LevelGrid::for_viewer(20, 64, 0.5, 1.0, None).with_reference(100.0);
+        let b = a.with_reference(100.0);
+        assert!(b.dirty_since(Some(&a)).is_empty());
+        let c = a.with_reference(104.0);
+        let rects = c.dirty_since(Some(&a));
+        assert_eq!(rects.iter().map(GridRect::texels).sum::<u64>(), 64 * 64);
     }
 
     #[test]

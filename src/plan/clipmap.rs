@@ -11,14 +11,16 @@
 use std::f64::consts::PI;
 
 use crate::clipmap::density::{Density, DensityCap, DensityPlan, ScreenScale, detail_density_cap};
-use crate::clipmap::levels::{GridRect, LevelGrid};
+use crate::clipmap::levels::{
+    GridRect, LevelGrid, reference_depends_on_ground, reference_height_m,
+};
 use crate::clipmap::selection::{DrawList, LevelSelection, PlanarCut, SectorBounds};
 use crate::clipmap::settings::level_outer_theta_rad;
 use crate::clipmap::{ClipmapSettings, RingMesh};
 use crate::geo::visibility;
 use crate::procedural::Detail;
 
-use super::{TerrainQuery, ViewPlan};
+use super::{HeightSource, TerrainQuery, ViewPlan};
 
 /// One level's update: the window its texture must hold and the rectangles that differ from
 /// what it holds now (empty when nothing moved).
@@ -26,6 +28,10 @@ use super::{TerrainQuery, ViewPlan};
 pub struct LevelFill {
     pub grid: LevelGrid,
     pub rects: Vec<GridRect>,
+    /// Not to be filled yet: the ground under the eye is still a coarser tile's and the
+    /// level's reference height depends on it (`reference_height_m`), so a fill now would be
+    /// rewritten once the camera's tile arrives. Its tiles are fetched all the same.
+    pub defer: bool,
 }
 
 impl LevelFill {
@@ -105,19 +111,37 @@ impl ClipmapPlan {
             selection.finest = settings.levels - 1;
         }
         let first = selection.coarsest.saturating_sub(1);
+        let provisional = view.ground_source == HeightSource::CoarserTiles;
         let fills = (first..=selection.finest)
             .map(|level| {
                 let old = held[level as usize];
+                let kept = old.as_ref().filter(|_| keep_spans);
+                // While the ground is a coarser tile's, a level keeps the reference it holds
+                // (at rest too) and one that has none waits for the camera's tile.
+                let held_ref = if provisional { old.as_ref() } else { kept }.map(|g| g.ref_m);
+                let ref_m = reference_height_m(
+                    level,
+                    view.radius_m,
+                    view.ground_m,
+                    view.height_above_terrain_m,
+                    height_range_m,
+                    held_ref,
+                );
+                let defer = provisional
+                    && old.is_none_or(|o| o.ref_m != ref_m)
+                    && reference_depends_on_ground(level, view.radius_m, height_range_m);
                 let grid = LevelGrid::for_viewer(
                     level,
                     settings.texture_size,
                     view.phi_v_rad,
                     view.theta_v_rad,
-                    old.as_ref().filter(|_| keep_spans),
-                );
+                    kept,
+                )
+                .with_reference(ref_m);
                 LevelFill {
                     grid,
                     rects: grid.dirty_since(old.as_ref()),
+                    defer,
                 }
             })
             .collect();

@@ -457,8 +457,9 @@ impl DemFeed {
         // Fill the levels whose tiles are all resident.
         let mut filled = Vec::with_capacity(levels.len());
         let mut jobs = Vec::new();
-        for ((params, tiles), &fits) in per_level.iter().zip(&admitted) {
+        for (((params, tiles), &fits), job) in per_level.iter().zip(&admitted).zip(levels) {
             let ready = fits
+                && !job.defer
                 && tiles.iter().all(|k| self.gpu.contains(k))
                 && jobs.len() + params.len() <= self.fill.capacity() as usize;
             if ready {

@@ -214,7 +214,10 @@ pub struct LevelUniforms {
     pub morph: f32,
     pub outer_morph: f32,
     pub inner_morph: f32,
-    pub _pad: [u32; 3],
+    /// The level's reference height minus the eye's altitude (f64, then f32): a texel's
+    /// height relative to the eye is its stored h − ref plus this (`LevelGrid::ref_m`).
+    pub ref_eye_m: f32,
+    pub _pad: [u32; 2],
 }
 
 /// One scale as the fill shader gets it. `Wave` in `shaders/fill_analytic.wgsl`.
@@ -241,6 +244,9 @@ pub struct FillParams {
     pub size: u32,
     /// The first texel, in grid steps from the reference point (the anchor).
     pub offset: [u32; 2],
+    /// The level's reference height (`LevelGrid::ref_m`, exact in f32), subtracted.
+    pub ref_m: f32,
+    pub _pad: [u32; 3],
     pub waves: [WaveParams; SCALES],
 }
 
@@ -263,9 +269,13 @@ pub struct DemFillParams {
     pub wraps: u32,
     pub cap_north: [f32; 2],
     pub cap_south: [f32; 2],
+    /// metres − the level's reference height = decode[0] + decode[1] · code.
     pub decode: [f32; 2],
     /// The first texel, in grid steps from the point `base`/`frac` give (the anchor).
     pub offset: [u32; 2],
+    /// Sea level (outside a regional grid) less the level's reference height.
+    pub sea_m: f32,
+    pub _pad: u32,
 }
 
 /// `WaterCullParams` in `shaders/water_cull.wgsl`: one per frame.
@@ -302,7 +312,9 @@ pub struct NormalParams {
     /// The first texel, in grid steps from the anchor (`angles`, `trig`).
     pub offset_x: u32,
     pub offset_y: u32,
-    pub _pad: [u32; 3],
+    /// The level's reference height: the texture holds h − ref (`LevelGrid::ref_m`).
+    pub ref_m: f32,
+    pub _pad: [u32; 2],
 }
 
 impl NormalParams {
@@ -350,7 +362,8 @@ impl NormalParams {
             pole_south: row(south),
             offset_x: (rect.gx0 - anchor[0]) as u32,
             offset_y: (rect.gy0 - anchor[1]) as u32,
-            _pad: [0; 3],
+            ref_m: grid.ref_m as f32,
+            _pad: [0; 2],
         }
     }
 }
@@ -640,22 +653,22 @@ gpu_struct!(LookUniforms as "LookUniforms" {
 });
 gpu_struct!(LevelUniforms as "LevelUniforms" {
     grid_x_viewer, grid_y_viewer, inv_dphi, inv_dtheta, dtheta_rad, detail_full, detail_end,
-    density, outer_density, inner_density, morph, outer_morph, inner_morph,
+    density, outer_density, inner_density, morph, outer_morph, inner_morph, ref_eye_m,
 });
 gpu_struct!(NormalParams as "NormalParams" {
     slot0, extent, layer, size, partial_count, quarter, angles, trig, radius_m, pole_north,
-    pole_south, offset_x, offset_y,
+    pole_south, offset_x, offset_y, ref_m,
 });
 gpu_struct!(WaterCullParams as "WaterCullParams" {
     dry_from_m, block, blocks_per_row, job_count, draw_count,
 });
 gpu_struct!(WaveParams as "Wave" { omega_a, omega_b, phases });
 gpu_struct!(FillParams as "FillParams" {
-    ref_trig, spacing, slot0, extent, layer, size, offset, waves,
+    ref_trig, spacing, slot0, extent, layer, size, offset, ref_m, waves,
 });
 gpu_struct!(DemFillParams as "DemFillParams" {
     base, frac, step, slot0, extent, layer, size, page_base, tiles_x, cols, rows, tile_size,
-    wraps, cap_north, cap_south, decode, offset,
+    wraps, cap_north, cap_south, decode, offset, sea_m,
 });
 /// `PlacedVertex` in `shaders/terrain.wgsl`: one ring vertex placed by the vertex pre-pass
 /// (`render::placement`), which the clipmap's draws read as their vertex buffer.
@@ -1028,7 +1041,8 @@ pub fn level_uniforms(
                 morph: d.body.morph,
                 outer_morph: d.outer.morph,
                 inner_morph: d.inner.morph,
-                _pad: [0; 3],
+                ref_eye_m: (g.ref_m - view.camera.altitude_m) as f32,
+                _pad: [0; 2],
             };
         }
     }
@@ -1058,6 +1072,8 @@ impl FillParams {
             layer: grid.level,
             size: grid.size,
             offset: [(rect.gx0 - anchor[0]) as u32, (rect.gy0 - anchor[1]) as u32],
+            ref_m: grid.ref_m as f32,
+            _pad: [0; 3],
             waves: planet
                 .waves_at(phi_r, theta_r, band_limit_texel_m(grid, planet.radius_m))
                 .map(|w| WaveParams::from(&w)),
@@ -1123,6 +1139,9 @@ pub struct DemFillJob {
 impl From<&DemFillJob> for DemFillParams {
     fn from(j: &DemFillJob) -> Self {
         let pair = |v: [f64; 2]| [v[0] as f32, v[1] as f32];
+        // Heights from the level's reference, subtracted in f64 (LevelGrid::ref_m).
+        let r = j.grid.ref_m;
+        let cap = |c: [f64; 2]| [c[0] as f32, (c[1] - r) as f32];
         Self {
             base: [j.base[0] as i32, j.base[1] as i32],
             frac: pair(j.frac),
@@ -1137,10 +1156,12 @@ impl From<&DemFillJob> for DemFillParams {
             rows: j.rows as i32,
             tile_size: j.tile_size as i32,
             wraps: j.wraps as u32,
-            cap_north: pair(j.cap_north),
-            cap_south: pair(j.cap_south),
-            decode: [j.decode_offset_m as f32, j.decode_quantum_m as f32],
+            cap_north: cap(j.cap_north),
+            cap_south: cap(j.cap_south),
+            decode: [(j.decode_offset_m - r) as f32, j.decode_quantum_m as f32],
             offset: j.offset,
+            sea_m: -r as f32,
+            _pad: 0,
         }
     }
 }

@@ -775,7 +775,8 @@ impl TerrainRenderer {
     }
 
     /// The grid a level's texture holds and its heights in grid order (row gy0 first, column
-    /// gx0 first), read back from the GPU: tests compare the fill with the terrain function.
+    /// gx0 first), read back from the GPU as stored: h − `grid.ref_m` (tests compare the fill
+    /// with the terrain function).
     pub fn read_level(
         &self,
         ctx: &super::GpuContext,
@@ -1097,9 +1098,9 @@ impl TerrainRenderer {
             });
         let (texels_filled, stream, normal_jobs) = match (self.terrain.base(), &mut self.feed) {
             (Base::Analytic(planet), _) => {
-                let jobs: Vec<FillJob> = clipmap
-                    .fills
-                    .iter()
+                let fills = clipmap.fills.iter().filter(|f| !f.defer);
+                let jobs: Vec<FillJob> = fills
+                    .clone()
                     .flat_map(|fill| {
                         fill.rects.iter().map(|rect| FillJob {
                             grid: fill.grid,
@@ -1107,7 +1108,7 @@ impl TerrainRenderer {
                         })
                     })
                     .collect();
-                for fill in &clipmap.fills {
+                for fill in fills {
                     self.grids[fill.grid.level as usize] = Some(fill.grid);
                 }
                 let texels =
