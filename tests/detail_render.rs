@@ -22,6 +22,44 @@ use globe::render::TerrainRenderer;
 use globe::render::offscreen::COLOR_FORMAT;
 use globe::terrain::Terrain;
 
+/// Both poles, the antimeridian and Garda (`ground`).
+const SITES: [(f64, f64); 4] = [(90.0, 0.0), (-90.0, 0.0), (10.0, 180.0), (45.65, 10.65)];
+const W: u32 = 96;
+const H: u32 = 54;
+
+fn renderer(ctx: &globe::render::GpuContext, terrain: &Terrain) -> TerrainRenderer {
+    TerrainRenderer::new(
+        &ctx.device,
+        ClipmapSettings::default(),
+        terrain.clone(),
+        COLOR_FORMAT,
+    )
+    .unwrap()
+}
+
+/// `above_m` over the terrain at (lat, lon), 30° down.
+fn camera_above(terrain: &Terrain, lat: f64, lon: f64, above_m: f64) -> Camera {
+    Camera {
+        lat_deg: lat,
+        lon_deg: lon,
+        altitude_m: terrain.height_at_lat_lon_m(lat, lon) + above_m,
+        heading_deg: 30.0,
+        pitch_deg: -30.0,
+        roll_deg: 0.0,
+        fov_y_deg: 60.0,
+    }
+}
+
+/// The frame's error against the reference ray caster over the same rule.
+fn measured(
+    frame: &globe::render::RenderedFrame,
+    camera: &Camera,
+    terrain: &Terrain,
+) -> measure::ErrorStats {
+    let reference = RayCaster::new(terrain, camera, W, H).cast(&PixelSet::All);
+    measure::measure_frame(frame, camera, terrain, Some(&reference), 1.0).unwrap()
+}
+
 #[test]
 fn a_camera_just_above_the_detail_at_poles_and_antimeridian() {
     let Some((ctx, _lock)) = common::gpu() else {
@@ -30,41 +68,23 @@ fn a_camera_just_above_the_detail_at_poles_and_antimeridian() {
     let terrain = Terrain::embedded_earth()
         .unwrap()
         .with_detail(Some(DetailParams::default()));
-    let mut r = TerrainRenderer::new(
-        &ctx.device,
-        ClipmapSettings::default(),
-        terrain.clone(),
-        COLOR_FORMAT,
-    )
-    .unwrap();
-    let (w, h) = (96, 54);
+    let mut r = renderer(ctx, &terrain);
     for (above_m, p99_max, max_max) in [(0.1, 1.0, 2.0), (0.001, 12.0, 12.0)] {
-        for (lat, lon) in [(90.0, 0.0), (-90.0, 0.0), (10.0, 180.0), (45.65, 10.65)] {
-            let ground = terrain.height_at_lat_lon_m(lat, lon);
-            let camera = Camera {
-                lat_deg: lat,
-                lon_deg: lon,
-                altitude_m: ground + above_m,
-                heading_deg: 30.0,
-                pitch_deg: -30.0,
-                roll_deg: 0.0,
-                fov_y_deg: 60.0,
-            };
-            let frame = common::render(ctx, &mut r, &camera, w, h);
+        for (lat, lon) in SITES {
+            let camera = camera_above(&terrain, lat, lon, above_m);
+            let frame = common::render(ctx, &mut r, &camera, W, H);
             assert!(
                 frame.info.height_above_terrain_m > 0.0,
                 "({lat}, {lon}): camera below the surface it stands on ({} m)",
                 frame.info.height_above_terrain_m
             );
-            for y in 0..h {
-                for x in 0..w {
+            for y in 0..H {
+                for x in 0..W {
                     let d = frame.depth_at(x, y);
                     assert!(d.is_finite() && (0.0..=1.0).contains(&d), "depth {d}");
                 }
             }
-            let reference = RayCaster::new(&terrain, &camera, w, h).cast(&PixelSet::All);
-            let e =
-                measure::measure_frame(&frame, &camera, &terrain, Some(&reference), 1.0).unwrap();
+            let e = measured(&frame, &camera, &terrain);
             let mismatched = e.coverage.as_ref().map_or(0, |c| c.mismatched());
             println!(
                 "detail, camera {above_m} m up at ({lat}, {lon}): p99 {:.3} px, max {:.3} px \
@@ -86,34 +106,18 @@ fn a_camera_just_above_the_detail_at_poles_and_antimeridian() {
 }
 
 /// The data alone, a millimetre up: what the level textures hold near the eye must keep f32
-/// steps far below a pixel there (heights from a reference near the eye, not absolute).
+/// steps far below a pixel there (heights from a reference near the ground, not absolute).
 #[test]
 fn a_millimetre_above_the_data_alone_is_within_a_pixel() {
     let Some((ctx, _lock)) = common::gpu() else {
         return;
     };
     let terrain = Terrain::embedded_earth().unwrap();
-    let mut r = TerrainRenderer::new(
-        &ctx.device,
-        ClipmapSettings::default(),
-        terrain.clone(),
-        COLOR_FORMAT,
-    )
-    .unwrap();
-    let (w, h) = (96, 54);
-    for (lat, lon) in [(90.0, 0.0), (-90.0, 0.0), (10.0, 180.0), (45.65, 10.65)] {
-        let camera = Camera {
-            lat_deg: lat,
-            lon_deg: lon,
-            altitude_m: terrain.height_at_lat_lon_m(lat, lon) + 0.001,
-            heading_deg: 30.0,
-            pitch_deg: -30.0,
-            roll_deg: 0.0,
-            fov_y_deg: 60.0,
-        };
-        let frame = common::render(ctx, &mut r, &camera, w, h);
-        let reference = RayCaster::new(&terrain, &camera, w, h).cast(&PixelSet::All);
-        let e = measure::measure_frame(&frame, &camera, &terrain, Some(&reference), 1.0).unwrap();
+    let mut r = renderer(ctx, &terrain);
+    for (lat, lon) in SITES {
+        let camera = camera_above(&terrain, lat, lon, 0.001);
+        let frame = common::render(ctx, &mut r, &camera, W, H);
+        let e = measured(&frame, &camera, &terrain);
         println!(
             "data alone, camera 1 mm up at ({lat}, {lon}): p99 {:.3} px, max {:.3} px over {} px",
             e.p99_px, e.max_px, e.pixels_measured
