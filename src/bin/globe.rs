@@ -122,7 +122,9 @@ struct MeshArgs {
     /// m: rings per level [default: from --error-budget, 32].
     #[arg(long = "rings", value_name = "M")]
     rings_per_level: Option<u32>,
-    /// Number of levels in the mesh (level i spans θ̃ ∈ (2^-(i+1)π, 2^-iπ]).
+    /// Number of levels in the mesh (level i spans θ̃ ∈ (2^-(i+1)π, 2^-iπ]; level 29 is 3.7 cm
+    /// across). 32 for millimetre close-ups with the detail on (the finest octaves need the
+    /// mesh under the eye).
     #[arg(long, default_value_t = ClipmapSettings::default().levels)]
     levels: u32,
     /// Side of each level texture in texels (a power of two) [default: from --error-budget, 512].
