@@ -14,28 +14,15 @@
 
 mod common;
 
-use globe::clipmap::ClipmapSettings;
 use globe::geo::camera::Camera;
 use globe::measure::{self, PixelSet, RayCaster};
 use globe::procedural::DetailParams;
-use globe::render::TerrainRenderer;
-use globe::render::offscreen::COLOR_FORMAT;
 use globe::terrain::Terrain;
 
 /// Both poles, the antimeridian and Garda (`ground`).
 const SITES: [(f64, f64); 4] = [(90.0, 0.0), (-90.0, 0.0), (10.0, 180.0), (45.65, 10.65)];
 const W: u32 = 96;
 const H: u32 = 54;
-
-fn renderer(ctx: &globe::render::GpuContext, terrain: &Terrain) -> TerrainRenderer {
-    TerrainRenderer::new(
-        &ctx.device,
-        ClipmapSettings::default(),
-        terrain.clone(),
-        COLOR_FORMAT,
-    )
-    .unwrap()
-}
 
 /// `above_m` over the terrain at (lat, lon), 30° down.
 fn camera_above(terrain: &Terrain, lat: f64, lon: f64, above_m: f64) -> Camera {
@@ -68,7 +55,7 @@ fn a_camera_just_above_the_detail_at_poles_and_antimeridian() {
     let terrain = Terrain::embedded_earth()
         .unwrap()
         .with_detail(Some(DetailParams::default()));
-    let mut r = renderer(ctx, &terrain);
+    let mut r = common::default_renderer(ctx, &terrain);
     for (above_m, p99_max, max_max) in [(0.1, 1.0, 2.0), (0.001, 12.0, 12.0)] {
         for (lat, lon) in SITES {
             let camera = camera_above(&terrain, lat, lon, above_m);
@@ -113,7 +100,7 @@ fn a_millimetre_above_the_data_alone_is_within_a_pixel() {
         return;
     };
     let terrain = Terrain::embedded_earth().unwrap();
-    let mut r = renderer(ctx, &terrain);
+    let mut r = common::default_renderer(ctx, &terrain);
     for (lat, lon) in SITES {
         let camera = camera_above(&terrain, lat, lon, 0.001);
         let frame = common::render(ctx, &mut r, &camera, W, H);

@@ -12,10 +12,8 @@ mod common;
 
 use std::time::{Duration, Instant};
 
-use globe::clipmap::ClipmapSettings;
 use globe::clipmap::selection::{LevelSelection, LevelStatus};
 use globe::geo::camera::Camera;
-use globe::render::offscreen::COLOR_FORMAT;
 use globe::render::{FrameInfo, GpuContext, TerrainRenderer};
 use globe::scenes::Scene;
 use globe::terrain::Terrain;
@@ -24,16 +22,6 @@ const WIDTH: u32 = 320;
 const HEIGHT: u32 = 180;
 /// Longest a scene may take to stream in from the memory-mapped file.
 const SETTLE_TIMEOUT: Duration = Duration::from_secs(120);
-
-fn earth_renderer(ctx: &GpuContext, terrain: &Terrain) -> TerrainRenderer {
-    TerrainRenderer::new(
-        &ctx.device,
-        ClipmapSettings::default(),
-        terrain.clone(),
-        COLOR_FORMAT,
-    )
-    .unwrap()
-}
 
 /// What streaming a view in from a fresh renderer did.
 struct StreamIn {
@@ -117,7 +105,7 @@ fn check_scene(name: &str) {
     let pyramid = dem.pyramid().info();
     let scene = Scene::by_name(name).unwrap();
     let camera = scene.camera(|lat, lon| terrain.height_at_lat_lon_m(lat, lon));
-    let mut r = earth_renderer(ctx, &terrain);
+    let mut r = common::default_renderer(ctx, &terrain);
     let settings = r.settings.clone();
     let levels = settings.levels;
     let texels_per_level = u64::from(settings.texture_size).pow(2);
@@ -257,7 +245,7 @@ fn check_scene(name: &str) {
     assert!(recoloured > 0, "{name}: the overlay draws nothing");
 
     // The same view with every level forced on, from a fresh renderer: what the bounds saved.
-    let mut all = earth_renderer(ctx, &terrain);
+    let mut all = common::default_renderer(ctx, &terrain);
     all.draw_all_levels = true;
     let all_streamed = stream_in(ctx, &mut all, &camera);
     let all_written = all_streamed.texels;

@@ -96,8 +96,7 @@ fn a_pyramid_read_inside_a_frame_is_counted() {
 /// pixels as a fresh renderer that filled every level at once.
 #[test]
 fn a_settled_view_does_not_depend_on_the_path_to_it() {
-    use globe::render::TerrainRenderer;
-    use globe::render::offscreen::{COLOR_FORMAT, OffscreenFrame};
+    use globe::render::offscreen::OffscreenFrame;
     let Some((ctx, _guard)) = common::gpu() else {
         return;
     };
@@ -105,15 +104,7 @@ fn a_settled_view_does_not_depend_on_the_path_to_it() {
     let ground = |lat: f64, lon: f64| terrain.height_at_lat_lon_m(lat, lon);
     let view = globe::scenes::find("aircraft").unwrap().camera(ground);
     let target = OffscreenFrame::new(&ctx.device, 240, 135);
-    let new = || {
-        TerrainRenderer::new(
-            &ctx.device,
-            ClipmapSettings::default(),
-            terrain.clone(),
-            COLOR_FORMAT,
-        )
-        .unwrap()
-    };
+    let new = || common::default_renderer(ctx, &terrain);
     let mut flown = new();
     let steps = 24;
     for i in 0..=steps {

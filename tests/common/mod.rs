@@ -179,6 +179,17 @@ pub fn all_tile_keys(p: &globe::dem::pyramid::Pyramid) -> Vec<globe::stream::Til
     keys
 }
 
+/// A fresh renderer over `terrain` with the default settings.
+pub fn default_renderer(ctx: &GpuContext, terrain: &globe::terrain::Terrain) -> TerrainRenderer {
+    TerrainRenderer::new(
+        &ctx.device,
+        globe::clipmap::settings::ClipmapSettings::default(),
+        terrain.clone(),
+        globe::render::offscreen::COLOR_FORMAT,
+    )
+    .unwrap()
+}
+
 /// A fresh renderer over the embedded Earth with water at sea level, the full look and, if
 /// `detail`, the default procedural detail.
 pub fn full_look_renderer(ctx: &GpuContext, detail: bool) -> TerrainRenderer {
@@ -186,13 +197,7 @@ pub fn full_look_renderer(ctx: &GpuContext, detail: bool) -> TerrainRenderer {
         .expect("embedded Earth")
         .with_detail(detail.then(globe::procedural::DetailParams::default))
         .with_water_level(Some(globe::look::SEA_LEVEL_M));
-    let mut r = TerrainRenderer::new(
-        &ctx.device,
-        globe::clipmap::settings::ClipmapSettings::default(),
-        terrain,
-        globe::render::offscreen::COLOR_FORMAT,
-    )
-    .unwrap();
+    let mut r = default_renderer(ctx, &terrain);
     r.set_look(&ctx.device, globe::look::LookSettings::default());
     r
 }
