@@ -6,7 +6,12 @@
 //
 // Pixel coordinates are linear in the grid indices within one job (the CPU splits rectangles
 // at the poles, where rows fold back), so they are passed as an integer base, a fraction
-// and a step: the fraction stays small, so f32 keeps sub-millimetre positions even at 30″.
+// (an f32 and the rest below it) and a step. A texel's position in its pixel is that
+// fraction plus a small offset, never summed in f32: a fraction's f32 step (6·10⁻⁸ of a
+// pixel, a millimetre of a 10′ pixel) times the data's slope would put a rounding noise of
+// a tenth of a millimetre into the levels a millimetre-high eye looks at. So the bilinear
+// weights are split the same way: (b − a)·f_hi + (b − a)·Δ, the first the same for every
+// texel of the pixel.
 
 // Rust twin: render::gpu_data::DemFillParams (layout checked by tests/shader_contract.rs).
 struct DemFillParams {
@@ -26,12 +31,14 @@ struct DemFillParams {
     // Pole caps: rows from the outermost row to the pole (0: no cap) and the pole's height.
     cap_north: vec2<f32>,
     cap_south: vec2<f32>,
-    // metres − ref = offset + quantum · code, ref the level's reference height (the texture
-    // holds h − ref: near the eye small numbers, whose f32 steps are fine)
+    // metres − ref = offset + quantum · (code − code_ref), ref the level's reference height
+    // (the texture holds h − ref: near the eye small numbers, whose f32 steps are fine; the
+    // code nearest ref is taken off as an integer, so neither term is large there)
     decode: vec2<f32>,
     offset: vec2<u32>,      // the first texel, in grid steps from base + frac (the anchor)
     sea_m: f32,             // sea level − ref: outside a regional grid
-    _pad: u32,
+    code_ref: i32,
+    frac_lo: vec2<f32>,     // the anchor's fractional (col, row) below `frac`'s f32
 }
 
 @group(0) @binding(0) var<uniform> params: DemFillParams;
@@ -49,7 +56,7 @@ fn pixel(col: i32, row: i32) -> f32 {
         return 0.0;
     }
     let code = textureLoad(tiles, vec2<i32>(col % t, row % t), i32(slot), 0).x;
-    return params.decode.x + params.decode.y * f32(code);
+    return params.decode.x + params.decode.y * f32(code - params.code_ref);
 }
 
 fn wrap_col(c: i32) -> i32 {
@@ -59,14 +66,15 @@ fn wrap_col(c: i32) -> i32 {
     return clamp(c, 0, params.cols - 1);
 }
 
-// Bilinear along a row (columns c, c+1 with weight fc).
-fn row_sample(row: i32, c: i32, fc: f32) -> f32 {
+// Bilinear along a row (columns c, c+1 with weight fc = fc_hi + fc_d, kept apart).
+fn row_sample(row: i32, c: i32, fc_hi: f32, fc_d: f32) -> f32 {
     let r = clamp(row, 0, params.rows - 1);
     let a = pixel(wrap_col(c), r);
-    if fc == 0.0 {
+    if fc_hi == 0.0 && fc_d == 0.0 {
         return a;
     }
-    return a + fc * (pixel(wrap_col(c + 1), r) - a);
+    let d = pixel(wrap_col(c + 1), r) - a;
+    return (a + fc_hi * d) + fc_d * d;
 }
 
 @compute @workgroup_size(WORKGROUP_SIZE, WORKGROUP_SIZE, 1)
@@ -76,14 +84,31 @@ fn cs_main(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     // Steps from the anchor block's corner: the same f32 sums whichever dispatch fills a texel.
     let k = id.xy + params.offset;
-    let c_rel = params.frac.x + f32(k.x) * params.step.x;
-    let r_rel = params.frac.y + f32(k.y) * params.step.y;
+    // Position in pixels from base: frac + d, d small (see the top).
+    let d = params.frac_lo + vec2<f32>(k) * params.step;
+    let c_rel = params.frac.x + d.x;
+    let r_rel = params.frac.y + d.y;
     let c_floor = floor(c_rel);
     let r_floor = floor(r_rel);
     let ci = params.base.x + i32(c_floor);
     let ri = params.base.y + i32(r_floor);
     let fc = c_rel - c_floor;
     let fr = r_rel - r_floor;
+    // fc = fc_hi + fc_d with fc_hi exact (a pixel's own texels share it), likewise fr, where
+    // the texel lies in the anchor's pixel or the next; farther (coarse levels, whose jobs
+    // span many pixels and whose texels are seen from afar) the split would only cancel.
+    var fc_hi = fc;
+    var fc_d = 0.0;
+    if abs(c_floor - floor(params.frac.x)) <= 1.0 {
+        fc_hi = params.frac.x - c_floor;
+        fc_d = d.x;
+    }
+    var fr_hi = fr;
+    var fr_d = 0.0;
+    if abs(r_floor - floor(params.frac.y)) <= 1.0 {
+        fr_hi = params.frac.y - r_floor;
+        fr_d = d.y;
+    }
     var h = params.sea_m;
     var inside = true;
     if params.wraps == 0u {
@@ -98,18 +123,19 @@ fn cs_main(@builtin(global_invocation_id) id: vec3<u32>) {
         let south = f32(ri - (params.rows - 1)) + fr; // rows past the outermost southern one
         if params.cap_north.x > 0.0 && north < 0.0 {
             let t = clamp(-north / params.cap_north.x, 0.0, 1.0);
-            let v = row_sample(0, ci, fc);
+            let v = row_sample(0, ci, fc_hi, fc_d);
             h = v + (params.cap_north.y - v) * t;
         } else if params.cap_south.x > 0.0 && south > 0.0 {
             let t = clamp(south / params.cap_south.x, 0.0, 1.0);
-            let v = row_sample(params.rows - 1, ci, fc);
+            let v = row_sample(params.rows - 1, ci, fc_hi, fc_d);
             h = v + (params.cap_south.y - v) * t;
         } else if ri < 0 || ri >= params.rows - 1 || fr == 0.0 {
-            h = row_sample(ri, ci, fc);
+            h = row_sample(ri, ci, fc_hi, fc_d);
         } else {
-            let top = row_sample(ri, ci, fc);
-            let bottom = row_sample(ri + 1, ci, fc);
-            h = top + fr * (bottom - top);
+            let top = row_sample(ri, ci, fc_hi, fc_d);
+            let bottom = row_sample(ri + 1, ci, fc_hi, fc_d);
+            let v = bottom - top;
+            h = (top + fr_hi * v) + fr_d * v;
         }
     }
     let slot = (params.slot0 + id.xy) % vec2<u32>(params.size);

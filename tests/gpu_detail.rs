@@ -19,7 +19,9 @@ use globe::clipmap::levels::LevelGrid;
 use globe::geo::EARTH_RADIUS_M;
 use globe::geo::sphere;
 use globe::geo::trig::sin_precise_f32;
-use globe::procedural::{Detail, DetailParams, LevelOctaves, RoughnessMap, detail_texel_f32};
+use globe::procedural::{
+    Detail, DetailParams, LevelOctaves, RoughnessMap, delta_texel_f32, detail_texel_f32,
+};
 use globe::render::GpuContext;
 use globe::render::gpu_data::DetailFillParams;
 use wgpu::util::DeviceExt;
@@ -280,7 +282,7 @@ fn check_site(ctx: &GpuContext, kernel: &Kernel, detail: &Detail, site: &Site, l
     let half = SIDE as i64 / 2;
     let gx = (site.phi_v / grid.dphi_rad).floor() as i64 - half;
     let gy = (site.theta_v / grid.dtheta_rad).floor() as i64 - half;
-    let params = DetailFillParams::new(Some(detail), &grid, gx, gy, BLEND);
+    let (params, offset) = DetailFillParams::with_offset(Some(detail), &grid, gx, gy, BLEND);
     assert_eq!(params.counts[0], octaves.full);
     assert_eq!(params.counts[1], octaves.partial);
     // The same block with every held octave summed as whole: the GPU's f32 sum at
@@ -299,6 +301,14 @@ fn check_site(ctx: &GpuContext, kernel: &Kernel, detail: &Detail, site: &Site, l
     let anchors = detail.anchors(u_ref, count);
     let amplitudes = detail.amplitudes_f32();
     let constants = detail.constants_f32();
+    let block_steps = grid.anchor_block() as f64;
+    let block = detail.delta_block(
+        phi_r,
+        theta_r,
+        [block_steps * grid.dphi_rad, block_steps * grid.dtheta_rad],
+        octaves,
+    );
+    assert_eq!(params.delta[0] as usize, block.count);
     // σ as the WGSL forms it from the (constant) relief map.
     let sigma_f32 = (params.sigma[0] + params.sigma[1] * RELIEF_M).clamp(0.0, params.sigma[2]);
     let sigma = detail.amplitude_m(u_ref);
@@ -316,18 +326,28 @@ fn check_site(ctx: &GpuContext, kernel: &Kernel, detail: &Detail, site: &Site, l
             let dphi = x as f32 * params.ref_angles[2];
             let dtheta = y as f32 * params.ref_angles[3];
             let du = delta_unit_from(params.ref_trig, dphi, dtheta);
-            let twin = detail_texel_f32(&anchors, &amplitudes, &constants, du, sigma_f32, octaves);
-            let twin_all = detail_texel_f32(
-                &anchors,
-                &amplitudes,
-                &constants,
-                du,
-                sigma_f32,
-                LevelOctaves {
-                    full: count as u32,
-                    partial: 0,
-                },
-            );
+            let twin_of = |octaves| {
+                if block.count > 0 {
+                    let map = detail.roughness();
+                    delta_texel_f32(
+                        &block,
+                        &amplitudes,
+                        &constants,
+                        map,
+                        du,
+                        dphi,
+                        dtheta,
+                        octaves,
+                    )
+                } else {
+                    detail_texel_f32(&anchors, &amplitudes, &constants, du, sigma_f32, octaves)
+                }
+            };
+            let twin = twin_of(octaves);
+            let twin_all = twin_of(LevelOctaves {
+                full: count as u32,
+                partial: 0,
+            });
             let u = sphere::unit_vector(
                 phi_r + x as f64 * grid.dphi_rad,
                 theta_r + y as f64 * grid.dtheta_rad,
@@ -371,7 +391,7 @@ fn check_site(ctx: &GpuContext, kernel: &Kernel, detail: &Detail, site: &Site, l
 
             // (b) GPU vs the f64 reference.
             let reference = detail.height_m(u, count as f64);
-            let err = (all_gpu[i] as f64 - reference).abs();
+            let err = (all_gpu[i] as f64 + offset - reference).abs();
             assert!(
                 err <= 1e-4 * sigma,
                 "{at}: GPU {} m vs f64 {reference} m at λ = {count}",
@@ -379,7 +399,7 @@ fn check_site(ctx: &GpuContext, kernel: &Kernel, detail: &Detail, site: &Site, l
             );
             e.f64_all = e.f64_all.max(err);
             // Whole + λ-weighted partials (as the vertex weights them), half floats included.
-            let mut shown = full_gpu[i] as f64;
+            let mut shown = full_gpu[i] as f64 + offset;
             let mut half_slack = 0.0;
             for (k, &p) in partials_gpu[i][..octaves.partial as usize]
                 .iter()
@@ -430,7 +450,7 @@ fn check_relief_site(
     let half = SIDE as i64 / 2;
     let gx = (site.phi_v / grid.dphi_rad).floor() as i64 - half;
     let gy = (site.theta_v / grid.dtheta_rad).floor() as i64 - half;
-    let mut params = DetailFillParams::new(Some(detail), &grid, gx, gy, BLEND);
+    let (mut params, offset) = DetailFillParams::with_offset(Some(detail), &grid, gx, gy, BLEND);
     params.counts[0] = count;
     params.counts[1] = 0;
     let (gpu, _) = kernel.run(ctx, &params);
@@ -445,7 +465,7 @@ fn check_relief_site(
             let u = sphere::unit_vector(phi, theta);
             let sigma = detail.amplitude_m(u);
             let reference = detail.height_m(u, count as f64);
-            let g = gpu[(y * SIDE + x) as usize] as f64;
+            let g = gpu[(y * SIDE + x) as usize] as f64 + offset;
             let err = (g - reference).abs();
             assert!(
                 err <= 1e-4 * sigma,

@@ -436,11 +436,12 @@ struct DemFillParamsWrongType {
     decode: [f32; 2],
     offset: [u32; 2],
     sea_m: f32,
-    _pad: u32,
+    code_ref: i32,
+    frac_lo: [f32; 2],
 }
 globe::gpu_struct!(DemFillParamsWrongType as "DemFillParams" {
     base, frac, step, slot0, extent, layer, size, page_base, tiles_x, cols, rows, tile_size,
-    wraps, cap_north, cap_south, decode, offset, sea_m,
+    wraps, cap_north, cap_south, decode, offset, sea_m, code_ref, frac_lo,
 });
 
 #[test]

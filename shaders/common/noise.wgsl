@@ -134,3 +134,71 @@ fn value_noise_grad(cell: vec3<i32>, f: vec3<f32>, seed: u32) -> vec4<f32> {
     );
     return vec4<f32>(value, grad);
 }
+
+// w(t + d) − w(t) for the fade, as its Taylor polynomial in d: exact (w has degree 5), and a
+// small d keeps its relative precision (procedural/delta.rs). Rust twin: delta::fade_delta_f32.
+fn fade_delta(t: f32, d: f32) -> f32 {
+    let w1 = 30.0 * t * t * (t - 1.0) * (t - 1.0);
+    let w2 = t * (60.0 * t * t - 90.0 * t + 30.0);
+    let w3 = 60.0 * t * t - 60.0 * t + 10.0;
+    let w4 = 30.0 * t - 15.0;
+    return d * (w1 + d * (w2 + d * (w3 + d * (w4 + d * 6.0))));
+}
+
+// ∂S/∂w_axis in a cell: the corners' differences along the axis, interpolated over the other
+// two axes' weights. Rust twin: delta::leg_slope.
+fn leg_slope(v: array<f32, 8>, w: vec3<f32>, axis: u32) -> f32 {
+    var d: vec4<f32>;
+    var s: f32;
+    var t: f32;
+    if axis == 0u {
+        d = vec4<f32>(v[1] - v[0], v[3] - v[2], v[5] - v[4], v[7] - v[6]);
+        s = w.y;
+        t = w.z;
+    } else if axis == 1u {
+        d = vec4<f32>(v[2] - v[0], v[3] - v[1], v[6] - v[4], v[7] - v[5]);
+        s = w.x;
+        t = w.z;
+    } else {
+        d = vec4<f32>(v[4] - v[0], v[5] - v[1], v[6] - v[2], v[7] - v[3]);
+        s = w.x;
+        t = w.y;
+    }
+    let a = d.x + (d.y - d.x) * s;
+    let b = d.z + (d.w - d.z) * s;
+    return a + (b - a) * t;
+}
+
+// S(cell + f + d) − S(cell + f), |d| < 1 per axis, from small numbers only: along x, then y,
+// then z, each leg within one cell or split at the face it crosses.
+// Rust twin: delta::value_noise_delta_f32.
+fn value_noise_delta(cell0: vec3<i32>, f: vec3<f32>, d: vec3<f32>, seed: u32) -> f32 {
+    var cell = cell0;
+    var g = f;
+    var v = lattice_corners(cell, seed);
+    var ds = 0.0;
+    for (var a = 0u; a < 3u; a++) {
+        let da = d[a];
+        let u = g[a] + da;
+        let w = vec3<f32>(fade(g.x), fade(g.y), fade(g.z));
+        if u >= 0.0 && u <= 1.0 {
+            ds += leg_slope(v, w, a) * fade_delta(g[a], da);
+            g[a] = u;
+        } else {
+            let up = u > 1.0;
+            let edge = select(0.0, 1.0, up);
+            let d1 = edge - g[a];
+            ds += leg_slope(v, w, a) * fade_delta(g[a], d1);
+            var step = vec3<i32>(0);
+            step[a] = select(-1, 1, up);
+            cell += step;
+            v = lattice_corners(cell, seed);
+            let start = 1.0 - edge;
+            g[a] = start;
+            let d2 = da - d1;
+            ds += leg_slope(v, vec3<f32>(fade(g.x), fade(g.y), fade(g.z)), a) * fade_delta(start, d2);
+            g[a] = start + d2;
+        }
+    }
+    return ds;
+}

@@ -29,6 +29,7 @@
 //! (spherical-clipmaps.md §4.2: a level holds only what its texels can carry) and at least four
 //! vertex spacings, so the ring mesh neither aliases nor loses it.
 
+pub mod delta;
 pub mod noise;
 pub mod presets;
 pub mod roughness;
@@ -39,6 +40,7 @@ use std::path::{Path, PathBuf};
 use glam::{DMat3, DQuat, DVec3};
 use serde::{Deserialize, Serialize};
 
+pub use delta::{DeltaBlock, delta_texel_f32};
 pub use roughness::{ReliefDab, RoughnessMap};
 pub use warp::WarpParams;
 

@@ -467,10 +467,14 @@ impl DemFeed {
             }
             filled.push(ready);
         }
-        let params: Vec<DemFillParams> = jobs.iter().map(DemFillParams::from).collect();
-        let details: Vec<_> = jobs
+        let (details, offsets): (Vec<_>, Vec<_>) = jobs
             .iter()
             .map(|j| detail.block(&j.grid, j.origin[0], j.origin[1]))
+            .unzip();
+        let params: Vec<DemFillParams> = jobs
+            .iter()
+            .zip(&offsets)
+            .map(|(j, &offset)| DemFillParams::new(j, offset))
             .collect();
         let texels = self
             .fill

@@ -139,9 +139,10 @@ impl DetailResources {
         }));
     }
 
-    /// The block of a dispatch starting at grid point (gx, gy) of `grid`.
-    pub fn block(&self, grid: &LevelGrid, gx: i64, gy: i64) -> DetailFillParams {
-        DetailFillParams::new(self.detail.as_deref(), grid, gx, gy, self.blend_fraction)
+    /// The block of a dispatch starting at grid point (gx, gy) of `grid`, and the detail at
+    /// that point its texels leave out (metres; the fill takes it off its reference height).
+    pub fn block(&self, grid: &LevelGrid, gx: i64, gy: i64) -> (DetailFillParams, f64) {
+        DetailFillParams::with_offset(self.detail.as_deref(), grid, gx, gy, self.blend_fraction)
     }
 
     /// Writes the blocks of this frame's dispatches (index i pairs with the fill's block i).

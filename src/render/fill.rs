@@ -203,15 +203,19 @@ impl FillPass {
             .bind_group
             .as_ref()
             .expect("fill target set before encoding");
-        let blocks: Vec<FillParams> = pieces
-            .iter()
-            .map(|(job, piece, anchor)| FillParams::new(planet, &job.grid, piece, *anchor))
-            .collect();
-        self.params.write(queue, &blocks);
-        let details: Vec<_> = pieces
+        let (details, offsets): (Vec<_>, Vec<_>) = pieces
             .iter()
             .map(|(job, _, anchor)| detail.block(&job.grid, anchor[0], anchor[1]))
+            .unzip();
+        let blocks: Vec<FillParams> = pieces
+            .iter()
+            .zip(&offsets)
+            .map(|((job, piece, anchor), &offset)| {
+                FillParams::new(planet, &job.grid, piece, *anchor)
+                    .with_detail_offset(&job.grid, offset)
+            })
             .collect();
+        self.params.write(queue, &blocks);
         detail.write(queue, &details);
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some("clipmap fill"),

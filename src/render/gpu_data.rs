@@ -269,13 +269,18 @@ pub struct DemFillParams {
     pub wraps: u32,
     pub cap_north: [f32; 2],
     pub cap_south: [f32; 2],
-    /// metres − the level's reference height = decode[0] + decode[1] · code.
+    /// metres − the level's reference height = decode[0] + decode[1] · (code − code_ref).
     pub decode: [f32; 2],
     /// The first texel, in grid steps from the point `base`/`frac` give (the anchor).
     pub offset: [u32; 2],
     /// Sea level (outside a regional grid) less the level's reference height.
     pub sea_m: f32,
-    pub _pad: u32,
+    /// The code nearest the reference height: subtracted as an integer, so that neither
+    /// term of `decode` is large where the ground is (f32 steps of 0.5 mm at 6 km depth).
+    pub code_ref: i32,
+    /// The anchor's fraction below `frac`'s f32: the shader adds it to the texel's small
+    /// offset, never to `frac` (shaders/fill_dem.wgsl).
+    pub frac_lo: [f32; 2],
 }
 
 /// `WaterCullParams` in `shaders/water_cull.wgsl`: one per frame.
@@ -381,6 +386,19 @@ pub struct DetailOctaveParams {
     pub cell: [i32; 4],
 }
 
+/// `DeltaOctave` in `shaders/common/detail_fill.wgsl`: a relative octave's values at the
+/// block's reference point ([`crate::procedural::delta`]).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct DeltaOctaveParams {
+    /// The reference's remainder below f32 (xyz), S(ref) − S(cell + f_hi) (w).
+    pub lo: [f32; 4],
+    /// 1 + g_h·clamp(Ĥ), Ĥ − clamp(Ĥ), −1 − clamp(Ĥ), 1 − clamp(Ĥ).
+    pub chain: [f32; 4],
+    /// The warp's vector (xy) and its length (z), S (w) at the reference.
+    pub warp_ref: [f32; 4],
+}
+
 /// Vectors of four amplitudes a_k in [`DetailFillParams`].
 pub const DETAIL_AMPLITUDE_VECS: usize = MAX_OCTAVES / 4;
 
@@ -395,17 +413,41 @@ pub struct DetailFillParams {
     pub warp2: [f32; 4],
     pub sigma: [f32; 4],
     pub counts: [u32; 4],
+    /// Relative octaves, relief mode, relief cell (bit patterns).
+    pub delta: [u32; 4],
+    /// Ĥ and the warp's vector after the relative octaves, their sum F_r.
+    pub delta_end: [f32; 4],
+    /// σ_raw − σ_r, −σ_r, cap − σ_r, gain at the reference.
+    pub delta_sigma: [f32; 4],
+    /// The reference's relief remainder: f32 part (xy), below it (zw).
+    pub relief_ref: [f32; 4],
+    /// Relief cells per radian of φ and θ, R(ref) − R(cell + f_hi), σ_r.
+    pub relief_ref2: [f32; 4],
     pub amplitudes: [[f32; 4]; DETAIL_AMPLITUDE_VECS],
     pub octaves: [DetailOctaveParams; MAX_OCTAVES],
+    pub deltas: [DeltaOctaveParams; MAX_OCTAVES],
 }
 
 impl DetailFillParams {
     /// The detail of the grid points of `grid` from (gx, gy) on (unfolded: rows past a pole
     /// keep going, as the fills' rows do). No detail: every count 0.
     pub fn new(detail: Option<&Detail>, grid: &LevelGrid, gx: i64, gy: i64, blend: f64) -> Self {
+        Self::with_offset(detail, grid, gx, gy, blend).0
+    }
+
+    /// As [`DetailFillParams::new`], with the detail at the block's reference point that the
+    /// texels leave out (metres, f64: σ_r·F_r of the relative octaves, `procedural::delta`):
+    /// the fill takes it off its reference height.
+    pub fn with_offset(
+        detail: Option<&Detail>,
+        grid: &LevelGrid,
+        gx: i64,
+        gy: i64,
+        blend: f64,
+    ) -> (Self, f64) {
         let mut p: Self = Zeroable::zeroed();
         let Some(detail) = detail else {
-            return p;
+            return (p, 0.0);
         };
         let octaves = detail.level_octaves(grid.level, blend);
         let count = (octaves.full + octaves.partial) as usize;
@@ -430,11 +472,36 @@ impl DetailFillParams {
         let map = detail.roughness();
         p.counts = [octaves.full, octaves.partial, map.cols, map.rows];
         p.amplitudes = amplitude_table(detail);
-        let u_ref = crate::geo::sphere::unit_vector(phi, theta);
-        for (o, a) in p.octaves.iter_mut().zip(detail.anchors(u_ref, count)) {
-            *o = DetailOctaveParams::from(&a);
+        let block_rad = grid.anchor_block() as f64;
+        let block = detail.delta_block(
+            phi,
+            theta,
+            [block_rad * grid.dphi_rad, block_rad * grid.dtheta_rad],
+            octaves,
+        );
+        debug_assert_eq!(block.anchors.len(), count);
+        for (o, a) in p.octaves.iter_mut().zip(&block.anchors) {
+            *o = DetailOctaveParams::from(a);
         }
-        p
+        for (o, d) in p.deltas.iter_mut().zip(&block.octaves) {
+            *o = DeltaOctaveParams {
+                lo: [d.f_lo[0], d.f_lo[1], d.f_lo[2], d.corr],
+                chain: [d.m_r, d.e_h, d.lo_h, d.hi_h],
+                warp_ref: [d.v_r[0], d.v_r[1], d.len_r, d.s_r],
+            };
+        }
+        let r = &block.relief;
+        p.delta = [
+            block.count as u32,
+            r.mode,
+            r.cell[0] as u32,
+            r.cell[1] as u32,
+        ];
+        p.delta_end = [block.h_end, block.v_end[0], block.v_end[1], block.f_r];
+        p.delta_sigma = block.sigma;
+        p.relief_ref = [r.f_hi[0], r.f_hi[1], r.f_lo[0], r.f_lo[1]];
+        p.relief_ref2 = [r.scale[0], r.scale[1], r.corr, block.sigma_r];
+        (p, block.offset_m)
     }
 }
 
@@ -633,8 +700,10 @@ gpu_struct!(DetailOctaveParams as "DetailOctave" { m0, m1, m2, cell });
 gpu_struct!(BumpUniforms as "BumpUniforms" {
     octaves, amplitudes, sigma, lambda_px, world0, world1, world2,
 });
+gpu_struct!(DeltaOctaveParams as "DeltaOctave" { lo, chain, warp_ref });
 gpu_struct!(DetailFillParams as "DetailFillParams" {
-    ref_trig, ref_angles, warp, warp2, sigma, counts, amplitudes, octaves,
+    ref_trig, ref_angles, warp, warp2, sigma, counts, delta, delta_end, delta_sigma, relief_ref,
+    relief_ref2, amplitudes, octaves, deltas,
 });
 
 gpu_struct!(TransformUniformsF32 as "TransformUniforms" {
@@ -668,7 +737,7 @@ gpu_struct!(FillParams as "FillParams" {
 });
 gpu_struct!(DemFillParams as "DemFillParams" {
     base, frac, step, slot0, extent, layer, size, page_base, tiles_x, cols, rows, tile_size,
-    wraps, cap_north, cap_south, decode, offset, sea_m,
+    wraps, cap_north, cap_south, decode, offset, sea_m, code_ref, frac_lo,
 });
 /// `PlacedVertex` in `shaders/terrain.wgsl`: one ring vertex placed by the vertex pre-pass
 /// (`render::placement`), which the clipmap's draws read as their vertex buffer.
@@ -812,6 +881,7 @@ pub fn pass_contracts() -> Vec<PassContract> {
                 WaveParams::layout(),
                 DetailFillParams::layout(),
                 DetailOctaveParams::layout(),
+                DeltaOctaveParams::layout(),
             ],
             buffers: vec![buffer(0, FillParams::wgsl_type()), detail_buffer()],
             vertex: None,
@@ -824,6 +894,7 @@ pub fn pass_contracts() -> Vec<PassContract> {
                 DemFillParams::layout(),
                 DetailFillParams::layout(),
                 DetailOctaveParams::layout(),
+                DeltaOctaveParams::layout(),
             ],
             buffers: vec![buffer(0, DemFillParams::wgsl_type()), detail_buffer(), {
                 // The page table: one slot index per pyramid tile.
@@ -1079,6 +1150,13 @@ impl FillParams {
                 .map(|w| WaveParams::from(&w)),
         }
     }
+
+    /// The same with the detail block leaving out `detail_offset_m`
+    /// ([`DetailFillParams::with_offset`]): taken off the reference height in f64.
+    pub fn with_detail_offset(mut self, grid: &LevelGrid, detail_offset_m: f64) -> Self {
+        self.ref_m = (grid.ref_m - detail_offset_m) as f32;
+        self
+    }
 }
 
 impl From<&WaveAt> for WaveParams {
@@ -1138,13 +1216,33 @@ pub struct DemFillJob {
 
 impl From<&DemFillJob> for DemFillParams {
     fn from(j: &DemFillJob) -> Self {
+        Self::new(j, 0.0)
+    }
+}
+
+impl DemFillParams {
+    /// The job's parameters when its detail block leaves out `detail_offset_m`
+    /// ([`DetailFillParams::with_offset`]).
+    pub fn new(j: &DemFillJob, detail_offset_m: f64) -> Self {
         let pair = |v: [f64; 2]| [v[0] as f32, v[1] as f32];
-        // Heights from the level's reference, subtracted in f64 (LevelGrid::ref_m).
-        let r = j.grid.ref_m;
+        // Heights from the level's reference, subtracted in f64 (LevelGrid::ref_m), less the
+        // detail the texels leave out.
+        let r = j.grid.ref_m - detail_offset_m;
         let cap = |c: [f64; 2]| [c[0] as f32, (c[1] - r) as f32];
+        let code_ref = if j.decode_quantum_m != 0.0 {
+            ((r - j.decode_offset_m) / j.decode_quantum_m)
+                .round()
+                .clamp(i32::MIN as f64 / 2.0, i32::MAX as f64 / 2.0) as i32
+        } else {
+            0
+        };
         Self {
             base: [j.base[0] as i32, j.base[1] as i32],
             frac: pair(j.frac),
+            frac_lo: [
+                (j.frac[0] - j.frac[0] as f32 as f64) as f32,
+                (j.frac[1] - j.frac[1] as f32 as f64) as f32,
+            ],
             step: pair(j.step),
             slot0: j.slot0,
             extent: j.extent,
@@ -1158,10 +1256,13 @@ impl From<&DemFillJob> for DemFillParams {
             wraps: j.wraps as u32,
             cap_north: cap(j.cap_north),
             cap_south: cap(j.cap_south),
-            decode: [(j.decode_offset_m - r) as f32, j.decode_quantum_m as f32],
+            decode: [
+                (j.decode_offset_m + j.decode_quantum_m * code_ref as f64 - r) as f32,
+                j.decode_quantum_m as f32,
+            ],
             offset: j.offset,
             sea_m: -r as f32,
-            _pad: 0,
+            code_ref,
         }
     }
 }
