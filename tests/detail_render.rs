@@ -4,10 +4,11 @@
 //! surface it stands on, and the geometry's error against the reference ray caster over the
 //! same rule (DEM + the octaves geometry holds at each distance) is measured:
 //!
-//! - 10 cm up: p99 ≤ 1 px and max ≤ 2 px;
-//! - 1 mm up: bounded (≤ 12 px at 96×54), not within 1 px: the coarse octaves' lattice
-//!   positions are f32 fractions of cells kilometres wide, a constant 0.1 mm off near the eye
-//!   (README, "Procedural detail");
+//! - 10 cm and 1 mm up: p99 ≤ 1 px and max ≤ 2 px. At 1 mm three things hold it there (each
+//!   alone left 1.5–7 px): levels down to 0.07 mm across (the finest level's cap is a flat
+//!   fan, which must be a fraction of the eye's height), the coarse octaves evaluated
+//!   relative to each fill block's reference point (`procedural::delta`), and the data's
+//!   bilinear weights and codes kept free of large f32 terms (`shaders/fill_dem.wgsl`);
 //! - 1 mm up over the data alone (detail off): p99 ≤ 1 px, max ≤ 2 px. The level textures hold
 //!   heights from a reference near the eye (`clipmap::levels::reference_height_m`); with
 //!   absolute heights (0.5 mm f32 steps at 4 km depth) this was 2–5 px.
@@ -56,7 +57,7 @@ fn a_camera_just_above_the_detail_at_poles_and_antimeridian() {
         .unwrap()
         .with_detail(Some(DetailParams::default()));
     let mut r = common::default_renderer(ctx, &terrain);
-    for (above_m, p99_max, max_max) in [(0.1, 1.0, 2.0), (0.001, 12.0, 12.0)] {
+    for above_m in [0.1, 0.001] {
         for (lat, lon) in SITES {
             let camera = camera_above(&terrain, lat, lon, above_m);
             let frame = common::render(ctx, &mut r, &camera, W, H);
@@ -81,7 +82,7 @@ fn a_camera_just_above_the_detail_at_poles_and_antimeridian() {
             assert!(e.pixels_measured > 0, "({lat}, {lon}): no terrain drawn");
             assert!(e.mean_px.is_finite() && e.max_px.is_finite());
             assert!(
-                e.p99_px <= p99_max && e.max_px <= max_max,
+                e.p99_px <= 1.0 && e.max_px <= 2.0,
                 "{above_m} m up at ({lat}, {lon}): {e:?}"
             );
             assert!(

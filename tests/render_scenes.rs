@@ -204,8 +204,9 @@ fn ground_heights_match_the_analytic_planet() {
     check_heights("ground");
 }
 
-/// Levels outside [θ̃min, θ̃max] are not drawn, and drawing them anyway changes (almost)
-/// nothing: horizon-culled levels are hidden, pixel-bound ones are inside the finest cap.
+/// Levels outside [θ̃min, θ̃max] or out of view are not drawn, and drawing them anyway changes
+/// (almost) nothing: horizon-culled levels are hidden, pixel-bound ones are inside the finest
+/// cap, out-of-view ones outside the frustum.
 #[test]
 fn skipped_levels_are_really_invisible() {
     let Some((ctx, _guard)) = common::gpu() else {
@@ -227,6 +228,7 @@ fn skipped_levels_are_really_invisible() {
                 LevelStatus::BeyondHorizon => assert!(outer / 2.0 >= sel.theta_max_rad),
                 LevelStatus::SubPixel => assert!(outer < sel.theta_min_rad),
                 LevelStatus::Waiting => panic!("the analytic planet never waits for data"),
+                LevelStatus::OutOfView => assert!(i as u32 > sel.finest),
             }
         }
         r.draw_all_levels = true;

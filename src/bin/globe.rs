@@ -122,9 +122,10 @@ struct MeshArgs {
     /// m: rings per level [default: from --error-budget, 32].
     #[arg(long = "rings", value_name = "M")]
     rings_per_level: Option<u32>,
-    /// Number of levels in the mesh (level i spans θ̃ ∈ (2^-(i+1)π, 2^-iπ]; level 29 is 3.7 cm
-    /// across). 32 for millimetre close-ups with the detail on (the finest octaves need the
-    /// mesh under the eye).
+    /// Most levels a frame may draw (level i spans θ̃ ∈ (2^-(i+1)π, 2^-iπ]; level 29 is 7.5 cm
+    /// across, level 39 0.07 mm). A frame draws down to the pixel bound, and no level whose
+    /// disk around the nadir is out of view; 40 keeps the cap under a camera 1 mm above the
+    /// detail a fraction of a millimetre wide.
     #[arg(long, default_value_t = ClipmapSettings::default().levels)]
     levels: u32,
     /// Side of each level texture in texels (a power of two) [default: from --error-budget, 512].
@@ -899,13 +900,15 @@ fn render(args: &RenderArgs) -> anyhow::Result<ExitCode> {
         camera.roll_deg
     );
     eprintln!(
-        "levels drawn {}..={} (θ̃max {:.4}°, θ̃min {:.3e}°): {} beyond the horizon, {} sub-pixel",
+        "levels drawn {}..={} (θ̃max {:.4}°, θ̃min {:.3e}°): {} beyond the horizon, {} sub-pixel, \
+         {} out of view",
         sel.coarsest,
         sel.finest,
         sel.theta_max_rad.to_degrees(),
         sel.theta_min_rad.to_degrees(),
         count(LevelStatus::BeyondHorizon),
-        count(LevelStatus::SubPixel)
+        count(LevelStatus::SubPixel),
+        count(LevelStatus::OutOfView)
     );
     eprintln!(
         "ring density k per drawn level, coarse to fine (n/2^k steps, m/2^k rings): {}",

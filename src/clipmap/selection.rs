@@ -26,6 +26,9 @@ pub enum LevelStatus {
     /// Wanted, but its data has not arrived yet (streaming): the next coarser level's cap
     /// covers it meanwhile.
     Waiting,
+    /// Its whole disk around the nadir lies outside the view frustum (and so does every finer
+    /// level's): neither filled nor drawn; the cap of the next coarser level stands in.
+    OutOfView,
 }
 
 impl LevelStatus {
@@ -35,6 +38,7 @@ impl LevelStatus {
             Self::BeyondHorizon => "beyond horizon (θ̃ > θ̃max)",
             Self::SubPixel => "sub-pixel (θ̃ < θ̃min)",
             Self::Waiting => "waiting for data",
+            Self::OutOfView => "out of view (nadir outside the frustum)",
         }
     }
 }

@@ -14,7 +14,9 @@ use crate::clipmap::density::{Density, DensityCap, DensityPlan, ScreenScale, det
 use crate::clipmap::levels::{
     GridRect, LevelGrid, reference_depends_on_ground, reference_height_m,
 };
-use crate::clipmap::selection::{DrawList, LevelSelection, PlanarCut, SectorBounds};
+use crate::clipmap::selection::{
+    Cone, DrawList, LevelSelection, LevelStatus, PlanarCut, SectorBounds,
+};
 use crate::clipmap::settings::level_outer_theta_rad;
 use crate::clipmap::{ClipmapSettings, RingMesh};
 use crate::geo::visibility;
@@ -158,6 +160,49 @@ impl ClipmapPlan {
             covered_rad: 0.0,
             cut_rad: 0.0,
         }
+    }
+
+    /// Before the fills: neither draws nor fills a level whose whole disk around the nadir lies
+    /// outside the view frustum. The levels are nested, so every finer one lies outside too,
+    /// and the cap of the finest level in view covers the rest. A walker looking ahead fills
+    /// none of the centimetre levels under its feet; a camera a millimetre above the ground,
+    /// whose whole view they are, gets as many as the pixel bound asks for (with the detail
+    /// on, the finest level's cap is a flat fan: at 1 mm it must be a fraction of a
+    /// millimetre wide, 10 levels finer than a walker's).
+    ///
+    /// The disk's heights are bounded by the ground under the eye and the drawn terrain's
+    /// slope bound over the disk (`TerrainQuery::cell_bounds_m`; the DEM's and the detail's),
+    /// within the culling bounds: the detail's amplitude bound alone (hundreds of metres)
+    /// would reach every eye.
+    pub fn limit_to_view(&mut self, view: &ViewPlan, query: &dyn TerrainQuery) {
+        let frustum = view.frustum();
+        let nadir = view.nadir();
+        let sel = &mut self.selection;
+        let mut finest = sel.finest;
+        while finest > sel.coarsest {
+            let angle = level_outer_theta_rad(finest);
+            let b = query.cell_bounds_m(nadir, angle, 0.0);
+            let (mut lo, mut hi) = (b.min_m, b.max_m);
+            if view.ground_source != HeightSource::CoarserTiles && b.slope.is_finite() {
+                let reach = b.slope * angle * view.radius_m;
+                lo = lo.max(view.ground_m - reach);
+                hi = hi.min(view.ground_m + reach);
+            }
+            let cone = Cone {
+                axis: glam::DVec3::Z,
+                half_angle_rad: angle,
+            };
+            let sphere = cone.bounding_sphere(view.radius_m + lo, view.radius_m + hi.max(lo));
+            if frustum.intersects(&sphere) {
+                break;
+            }
+            finest -= 1;
+        }
+        for level in finest + 1..=sel.finest {
+            sel.status[level as usize] = LevelStatus::OutOfView;
+        }
+        sel.finest = finest;
+        self.fills.retain(|f| f.grid.level <= finest);
     }
 
     /// After the fills: draws down to the last level that, like every coarser drawn level and

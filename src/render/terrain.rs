@@ -1085,6 +1085,11 @@ impl TerrainRenderer {
             self.draw_all_levels,
             !at_rest,
         );
+        // The planar methods sample the levels around the nadir whether or not they are in
+        // view, so only the clipmap alone leaves out-of-view levels unfilled.
+        if self.lod.mode == LodMode::Clipmap && !self.draw_all_levels {
+            clipmap.limit_to_view(&view, self.query());
+        }
 
         // The fill's pass starts the fill timing, the normal pass ends it (query 3 is written
         // by whichever runs last: the normal pass runs whenever a fill wrote something).

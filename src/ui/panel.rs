@@ -570,6 +570,7 @@ fn frame_section(ui: &mut egui::Ui, readout: &Readout<'_>) {
                             LevelStatus::BeyondHorizon => Color32::GRAY,
                             LevelStatus::SubPixel => Color32::from_rgb(220, 160, 90),
                             LevelStatus::Waiting => Color32::from_rgb(230, 90, 90),
+                            LevelStatus::OutOfView => Color32::from_rgb(150, 150, 200),
                         };
                         ui.label(level.to_string());
                         ui.label(format_deg(outer));
