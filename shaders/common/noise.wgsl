@@ -170,21 +170,29 @@ fn leg_slope(v: array<f32, 8>, w: vec3<f32>, axis: u32) -> f32 {
 }
 
 // S(cell + f + d) − S(cell + f), |d| < 1 per axis, from small numbers only: along x, then y,
-// then z, each leg within one cell or split at the face it crosses.
+// then z, each leg within one cell or split at the face it crosses (one call site of the
+// lattice hash: a CPU rasteriser compiles every inlined copy into each texel's code).
 // Rust twin: delta::value_noise_delta_f32.
 fn value_noise_delta(cell0: vec3<i32>, f: vec3<f32>, d: vec3<f32>, seed: u32) -> f32 {
     var cell = cell0;
     var g = f;
-    var v = lattice_corners(cell, seed);
+    var v: array<f32, 8>;
+    var stale = true;
     var ds = 0.0;
     for (var a = 0u; a < 3u; a++) {
-        let da = d[a];
-        let u = g[a] + da;
-        let w = vec3<f32>(fade(g.x), fade(g.y), fade(g.z));
-        if u >= 0.0 && u <= 1.0 {
-            ds += leg_slope(v, w, a) * fade_delta(g[a], da);
-            g[a] = u;
-        } else {
+        var rest = d[a];
+        for (var seg = 0u; seg < 2u; seg++) {
+            if stale {
+                v = lattice_corners(cell, seed);
+                stale = false;
+            }
+            let w = vec3<f32>(fade(g.x), fade(g.y), fade(g.z));
+            let u = g[a] + rest;
+            if (u >= 0.0 && u <= 1.0) || seg == 1u {
+                ds += leg_slope(v, w, a) * fade_delta(g[a], rest);
+                g[a] = u;
+                break;
+            }
             let up = u > 1.0;
             let edge = select(0.0, 1.0, up);
             let d1 = edge - g[a];
@@ -192,12 +200,9 @@ fn value_noise_delta(cell0: vec3<i32>, f: vec3<f32>, d: vec3<f32>, seed: u32) ->
             var step = vec3<i32>(0);
             step[a] = select(-1, 1, up);
             cell += step;
-            v = lattice_corners(cell, seed);
-            let start = 1.0 - edge;
-            g[a] = start;
-            let d2 = da - d1;
-            ds += leg_slope(v, vec3<f32>(fade(g.x), fade(g.y), fade(g.z)), a) * fade_delta(start, d2);
-            g[a] = start + d2;
+            stale = true;
+            g[a] = 1.0 - edge;
+            rest = rest - d1;
         }
     }
     return ds;

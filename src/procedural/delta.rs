@@ -333,27 +333,31 @@ fn leg_slope(v: &[f32; 8], w: [f32; 3], axis: usize) -> f32 {
 pub fn value_noise_delta_f32(cell: [i32; 3], f: [f32; 3], d: [f32; 3], seed: u32) -> f32 {
     let mut cell = cell;
     let mut g = f;
-    let mut v = lattice_corners(cell, seed);
+    let mut v = [0f32; 8];
+    let mut stale = true;
     let mut ds = 0f32;
     for a in 0..3 {
-        let da = d[a];
-        let u = g[a] + da;
-        let w = g.map(fade_f32);
-        if (0.0..=1.0).contains(&u) {
-            ds += leg_slope(&v, w, a) * fade_delta_f32(g[a], da);
-            g[a] = u;
-        } else {
+        let mut rest = d[a];
+        for seg in 0..2 {
+            if stale {
+                v = lattice_corners(cell, seed);
+                stale = false;
+            }
+            let w = g.map(fade_f32);
+            let u = g[a] + rest;
+            if (0.0..=1.0).contains(&u) || seg == 1 {
+                ds += leg_slope(&v, w, a) * fade_delta_f32(g[a], rest);
+                g[a] = u;
+                break;
+            }
             let up = u > 1.0;
             let edge = if up { 1.0 } else { 0.0 };
             let d1 = edge - g[a];
             ds += leg_slope(&v, w, a) * fade_delta_f32(g[a], d1);
             cell[a] = cell[a].wrapping_add(if up { 1 } else { -1 });
-            v = lattice_corners(cell, seed);
-            let start = 1.0 - edge;
-            g[a] = start;
-            let d2 = da - d1;
-            ds += leg_slope(&v, g.map(fade_f32), a) * fade_delta_f32(start, d2);
-            g[a] = start + d2;
+            stale = true;
+            g[a] = 1.0 - edge;
+            rest -= d1;
         }
     }
     ds
