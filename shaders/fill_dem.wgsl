@@ -39,6 +39,8 @@ struct DemFillParams {
     sea_m: f32,             // sea level − ref: outside a regional grid
     code_ref: i32,
     frac_lo: vec2<f32>,     // the anchor's fractional (col, row) below `frac`'s f32
+    anchor_m: f32,          // the data at the anchor − ref (f64 on the CPU), if `relative`
+    relative: u32,          // 1: texels add their change from the anchor (a block inside a pixel)
 }
 
 @group(0) @binding(0) var<uniform> params: DemFillParams;
@@ -57,6 +59,74 @@ fn pixel(col: i32, row: i32) -> f32 {
     }
     let code = textureLoad(tiles, vec2<i32>(col % t, row % t), i32(slot), 0).x;
     return params.decode.x + params.decode.y * f32(code - params.code_ref);
+}
+
+// The code of pixel (col, row): columns wrap, rows clamp (a relative job's rows are inside).
+fn code_at(col: i32, row: i32) -> i32 {
+    let c = wrap_col(col);
+    let r = clamp(row, 0, params.rows - 1);
+    let t = params.tile_size;
+    let slot = page[params.page_base + u32(r / t) * params.tiles_x + u32(c / t)];
+    if slot == NO_SLOT {
+        return 0;
+    }
+    return textureLoad(tiles, vec2<i32>(c % t, r % t), i32(slot), 0).x;
+}
+
+// The codes around pixel cell: (c, r), (c+1, r), (c, r+1), (c+1, r+1).
+fn code_corners(cell: vec2<i32>) -> vec4<i32> {
+    return vec4<i32>(
+        code_at(cell.x, cell.y),
+        code_at(cell.x + 1, cell.y),
+        code_at(cell.x, cell.y + 1),
+        code_at(cell.x + 1, cell.y + 1),
+    );
+}
+
+// ∂(bilinear)/∂f_a in codes at weights g: differences of integer codes, exact in f32.
+fn code_slope(q: vec4<i32>, g: vec2<f32>, a: u32) -> f32 {
+    if a == 0u {
+        let lo = f32(q.y - q.x);
+        let hi = f32(q.w - q.z);
+        return lo + (hi - lo) * g.y;
+    }
+    let lo = f32(q.z - q.x);
+    let hi = f32(q.w - q.y);
+    return lo + (hi - lo) * g.x;
+}
+
+// The bilinear data's change (codes) from pixel cell + f to cell + f + d, |d| < 1 per axis:
+// along columns, then rows, each leg split at the pixel edge it crosses (the same path as
+// procedural/delta.rs's relief). Only small numbers: a texel inside the anchor's pixel keeps
+// micrometres where the pixel's own values lie hundreds of metres from the ground.
+fn bilinear_delta(cell0: vec2<i32>, f: vec2<f32>, d: vec2<f32>) -> f32 {
+    var cell = cell0;
+    var g = f;
+    var q = code_corners(cell);
+    var dv = 0.0;
+    for (var a = 0u; a < 2u; a++) {
+        let da = d[a];
+        let u = g[a] + da;
+        if u >= 0.0 && u <= 1.0 {
+            dv += code_slope(q, g, a) * da;
+            g[a] = u;
+        } else {
+            let up = u > 1.0;
+            let edge = select(0.0, 1.0, up);
+            let d1 = edge - g[a];
+            dv += code_slope(q, g, a) * d1;
+            var step = vec2<i32>(0);
+            step[a] = select(-1, 1, up);
+            cell += step;
+            q = code_corners(cell);
+            let start = 1.0 - edge;
+            g[a] = start;
+            let d2 = da - d1;
+            dv += code_slope(q, g, a) * d2;
+            g[a] = start + d2;
+        }
+    }
+    return dv;
 }
 
 fn wrap_col(c: i32) -> i32 {
@@ -111,6 +181,17 @@ fn cs_main(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     var h = params.sea_m;
     var inside = true;
+    if params.relative != 0u {
+        // From the anchor's height (f64 on the CPU): the change from the anchor's f32 point to
+        // the texel, less that from the f32 point to the anchor itself.
+        let cell = params.base;
+        let moved = bilinear_delta(cell, params.frac, d) - bilinear_delta(cell, params.frac, params.frac_lo);
+        h = params.anchor_m + params.decode.y * moved;
+        let slot = (params.slot0 + id.xy) % vec2<u32>(params.size);
+        h += detail_texel(k, slot, params.layer);
+        textureStore(out_heights, slot, params.layer, vec4<f32>(h, 0.0, 0.0, 0.0));
+        return;
+    }
     if params.wraps == 0u {
         // Sea level outside a regional grid (its extents are the pixel edges).
         let c_abs = f32(ci) + fc;

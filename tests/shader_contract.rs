@@ -438,10 +438,12 @@ struct DemFillParamsWrongType {
     sea_m: f32,
     code_ref: i32,
     frac_lo: [f32; 2],
+    anchor_m: f32,
+    relative: u32,
 }
 globe::gpu_struct!(DemFillParamsWrongType as "DemFillParams" {
     base, frac, step, slot0, extent, layer, size, page_base, tiles_x, cols, rows, tile_size,
-    wraps, cap_north, cap_south, decode, offset, sea_m, code_ref, frac_lo,
+    wraps, cap_north, cap_south, decode, offset, sea_m, code_ref, frac_lo, anchor_m, relative,
 });
 
 #[test]

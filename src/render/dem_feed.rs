@@ -576,6 +576,25 @@ impl DemFeed {
         }
     }
 
+    /// The data's bilinear height at pixel `base` + `frac` of pyramid level `level` (f64, the
+    /// fill's own interpolation), if its four codes are at hand; columns wrap.
+    fn anchor_height_m(&self, level: usize, base: [i64; 2], frac: [f64; 2]) -> Option<f64> {
+        let pyr = self.dem.pyramid();
+        let cols = pyr.grid(level).cols as i64;
+        let enc = pyr.encoding();
+        self.with_codes(false, BOUNDS_PRIORITY, false, |code| {
+            let at = |dc: i64, dr: i64| {
+                let c = (base[0] + dc).rem_euclid(cols) as usize;
+                code(level, Plane::Avg, (base[1] + dr) as usize, c).map(f64::from)
+            };
+            let (a, b, c, d) = (at(0, 0)?, at(1, 0)?, at(0, 1)?, at(1, 1)?);
+            let (fc, fr) = (frac[0], frac[1]);
+            let top = a + fc * (b - a);
+            let bottom = c + fc * (d - c);
+            Some(enc.offset_m + enc.quantum_m * (top + fr * (bottom - top)))
+        })
+    }
+
     /// [`DemFeed::jobs_for_rect`] for a piece within one block: every parameter is computed
     /// at the block's corner `anchor`, so a texel's f32 arithmetic does not depend on which
     /// dispatch filled it (a settled view is the same whatever the path to it).
@@ -660,12 +679,25 @@ impl DemFeed {
                 if wraps {
                     base_col = base_col.rem_euclid(cols);
                 }
+                let frac = [col_anchor - col_floor, row_anchor - row_floor];
+                // A block well inside one pixel of a global grid, away from its edge rows:
+                // the fill interpolates relative to the anchor, whose height the CPU gives.
+                let block = grid.anchor_block() as f64;
+                let anchor_height_m = (wraps
+                    && matches!(fold, Fold::None)
+                    && block * dcol.abs() <= 0.5
+                    && block * drow.abs() <= 0.5
+                    && row_floor >= 1.0
+                    && row_floor + 3.0 <= rows as f64)
+                    .then(|| self.anchor_height_m(level, [base_col, row_floor as i64], frac))
+                    .flatten();
                 out.push(DemFillJob {
                     grid: *grid,
                     origin: anchor,
                     offset: [offset_x as u32, (ya - ay) as u32],
                     base: [base_col, row_floor as i64],
-                    frac: [col_anchor - col_floor, row_anchor - row_floor],
+                    frac,
+                    anchor_height_m,
                     step: [dcol, drow],
                     slot0: [
                         (rect.gx0 + x_off as i64).rem_euclid(s) as u32,

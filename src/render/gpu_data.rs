@@ -281,6 +281,10 @@ pub struct DemFillParams {
     /// The anchor's fraction below `frac`'s f32: the shader adds it to the texel's small
     /// offset, never to `frac` (shaders/fill_dem.wgsl).
     pub frac_lo: [f32; 2],
+    /// The data's height at the anchor less the reference (`DemFillJob::anchor_height_m`),
+    /// and whether it is given (1): the texels then add their change from the anchor.
+    pub anchor_m: f32,
+    pub relative: u32,
 }
 
 /// `WaterCullParams` in `shaders/water_cull.wgsl`: one per frame.
@@ -737,7 +741,7 @@ gpu_struct!(FillParams as "FillParams" {
 });
 gpu_struct!(DemFillParams as "DemFillParams" {
     base, frac, step, slot0, extent, layer, size, page_base, tiles_x, cols, rows, tile_size,
-    wraps, cap_north, cap_south, decode, offset, sea_m, code_ref, frac_lo,
+    wraps, cap_north, cap_south, decode, offset, sea_m, code_ref, frac_lo, anchor_m, relative,
 });
 /// `PlacedVertex` in `shaders/terrain.wgsl`: one ring vertex placed by the vertex pre-pass
 /// (`render::placement`), which the clipmap's draws read as their vertex buffer.
@@ -1190,6 +1194,9 @@ pub struct DemFillJob {
     /// Pyramid pixel (col, row) of `origin`: integer part and fraction.
     pub base: [i64; 2],
     pub frac: [f64; 2],
+    /// The data's height at `origin` (f64), where the job lies well inside one pixel of a
+    /// global grid: the fill then adds each texel's change from there (no large terms).
+    pub anchor_height_m: Option<f64>,
     /// Pixels per grid step (d col / d gx, d row / d gy).
     pub step: [f64; 2],
     /// Texel of the first grid point (toroidal) and the rectangle's size.
@@ -1243,6 +1250,8 @@ impl DemFillParams {
                 (j.frac[0] - j.frac[0] as f32 as f64) as f32,
                 (j.frac[1] - j.frac[1] as f32 as f64) as f32,
             ],
+            anchor_m: j.anchor_height_m.map_or(0.0, |h| (h - r) as f32),
+            relative: j.anchor_height_m.is_some() as u32,
             step: pair(j.step),
             slot0: j.slot0,
             extent: j.extent,
