@@ -39,7 +39,7 @@ struct DemFillParams {
     sea_m: f32,             // sea level − ref: outside a regional grid
     code_ref: i32,
     frac_lo: vec2<f32>,     // the anchor's fractional (col, row) below `frac`'s f32
-    anchor_m: f32,          // the data at the anchor − ref (f64 on the CPU), if `relative`
+    anchor_m: f32,          // the data at base + frac (f32 point) − ref, f64 on the CPU
     relative: u32,          // 1: texels add their change from the anchor (a block inside a pixel)
 }
 
@@ -182,17 +182,12 @@ fn cs_main(@builtin(global_invocation_id) id: vec3<u32>) {
     var h = params.sea_m;
     var inside = true;
     if params.relative != 0u {
-        // From the anchor's height (f64 on the CPU): the change from the anchor's f32 point to
-        // the texel, less that from the f32 point to the anchor itself.
-        let cell = params.base;
-        let moved = bilinear_delta(cell, params.frac, d) - bilinear_delta(cell, params.frac, params.frac_lo);
-        h = params.anchor_m + params.decode.y * moved;
-        let slot = (params.slot0 + id.xy) % vec2<u32>(params.size);
-        h += detail_texel(k, slot, params.layer);
-        textureStore(out_heights, slot, params.layer, vec4<f32>(h, 0.0, 0.0, 0.0));
-        return;
-    }
-    if params.wraps == 0u {
+        // From the height at the anchor's f32 point (f64 on the CPU), the change to the texel.
+        // (No early return: on llvmpipe one made the whole fill half again slower, taken or
+        // not.)
+        h = params.anchor_m + params.decode.y * bilinear_delta(params.base, params.frac, d);
+        inside = false;
+    } else if params.wraps == 0u {
         // Sea level outside a regional grid (its extents are the pixel edges).
         let c_abs = f32(ci) + fc;
         let r_abs = f32(ri) + fr;

@@ -8,7 +8,8 @@
 //!   alone left 1.5–7 px): levels down to 0.07 mm across (the finest level's cap is a flat
 //!   fan, which must be a fraction of the eye's height), the coarse octaves evaluated
 //!   relative to each fill block's reference point (`procedural::delta`), and the data's
-//!   bilinear weights and codes kept free of large f32 terms (`shaders/fill_dem.wgsl`);
+//!   bilinear weights and codes kept free of large f32 terms (`shaders/fill_dem.wgsl`; on the
+//!   finest levels each block starts from the data's height at its corner, f64 on the CPU);
 //! - 1 mm up over the data alone (detail off): p99 ≤ 1 px, max ≤ 2 px. The level textures hold
 //!   heights from a reference near the eye (`clipmap::levels::reference_height_m`); with
 //!   absolute heights (0.5 mm f32 steps at 4 km depth) this was 2–5 px.

@@ -15,6 +15,7 @@ use std::time::{Duration, Instant};
 use glam::DVec3;
 
 use crate::clipmap::levels::{GridRect, LevelGrid};
+use crate::clipmap::settings::level_outer_theta_rad;
 use crate::dem::FileChange;
 use crate::dem::pyramid::{CodeFn, Plane};
 use crate::geo::sphere;
@@ -33,6 +34,13 @@ use super::detail::DetailResources;
 use super::fill::band_limit_texel_m;
 use super::gpu_data::{DemFillJob, DemFillParams};
 use super::tiles::{DemFillPass, GpuTileCache};
+
+/// The levels whose DEM fill starts from each block's corner (`DemFillJob::anchor_height_m`):
+/// those seen from at most this far (a quarter of their diameter, metres). Farther, the
+/// direct interpolation's per-block rounding (ulp of the data's values relative to the
+/// reference: at most 10⁻⁴ m) is below 10⁻⁵ of the distance, and the relative path costs a
+/// CPU rasteriser half again the fill's time.
+const RELATIVE_FILL_REACH_M: f64 = 16.0;
 
 /// What the feed did in one frame, and the pipeline's state (for the UI and `globe bench`).
 #[derive(Clone, Debug, Default)]
@@ -680,16 +688,23 @@ impl DemFeed {
                     base_col = base_col.rem_euclid(cols);
                 }
                 let frac = [col_anchor - col_floor, row_anchor - row_floor];
-                // A block well inside one pixel of a global grid, away from its edge rows:
-                // the fill interpolates relative to the anchor, whose height the CPU gives.
+                // A block well inside one pixel of a global grid, away from its edge rows, on a
+                // level seen from at most RELATIVE_FILL_REACH_M: the fill interpolates relative
+                // to the anchor, whose height the CPU gives.
                 let block = grid.anchor_block() as f64;
+                let quarter_m = 0.5 * level_outer_theta_rad(grid.level) * self.dem.radius_m();
                 let anchor_height_m = (wraps
+                    && quarter_m <= RELATIVE_FILL_REACH_M
                     && matches!(fold, Fold::None)
                     && block * dcol.abs() <= 0.5
                     && block * drow.abs() <= 0.5
                     && row_floor >= 1.0
                     && row_floor + 3.0 <= rows as f64)
-                    .then(|| self.anchor_height_m(level, [base_col, row_floor as i64], frac))
+                    // At the anchor's f32 point, from which the shader adds frac_lo + k·step.
+                    .then(|| {
+                        let frac_f32 = frac.map(|f| f as f32 as f64);
+                        self.anchor_height_m(level, [base_col, row_floor as i64], frac_f32)
+                    })
                     .flatten();
                 out.push(DemFillJob {
                     grid: *grid,

@@ -1194,8 +1194,9 @@ pub struct DemFillJob {
     /// Pyramid pixel (col, row) of `origin`: integer part and fraction.
     pub base: [i64; 2],
     pub frac: [f64; 2],
-    /// The data's height at `origin` (f64), where the job lies well inside one pixel of a
-    /// global grid: the fill then adds each texel's change from there (no large terms).
+    /// The data's height (f64) at `base` + `frac` with `frac` rounded to f32 (the shader's
+    /// starting point), where the job lies well inside one pixel of a global grid: the fill
+    /// then adds each texel's change from there (no large terms).
     pub anchor_height_m: Option<f64>,
     /// Pixels per grid step (d col / d gx, d row / d gy).
     pub step: [f64; 2],
