@@ -477,41 +477,21 @@ pub fn delta_texel_f32(
         dv[1] += c.c1r0[1] * dh;
     }
     // The rest as `detail_texel_f32`, from the chain's state after the relative octaves.
-    let mut state = warp::WarpStateF32 {
+    let state = warp::WarpStateF32 {
         v: [block.v_end[0] + dv[0], block.v_end[1] + dv[1]],
     };
-    let mut h_all = block.h_end + dh;
-    let mut full = 0f32;
     let sigma = block.sigma_r + d_sigma;
-    let count = (octaves.full + octaves.partial) as usize;
-    let rest = block.anchors.iter().zip(amplitudes).enumerate();
-    for (k, (a, &amplitude)) in rest.take(count).skip(block.count) {
-        let d = state.displacement(c.lever, c.t);
-        let mut x = [0f32; 3];
-        for (i, xi) in x.iter_mut().enumerate() {
-            let row = a.m[i];
-            *xi = a.frac[i] + (row[0] * du[0] + row[1] * du[1] + row[2] * du[2]);
-        }
-        x[0] += d[0];
-        x[1] += d[1];
-        let fl = x.map(f32::floor);
-        let cell = [
-            a.cell[0].wrapping_add(fl[0] as i32),
-            a.cell[1].wrapping_add(fl[1] as i32),
-            a.cell[2].wrapping_add(fl[2] as i32),
-        ];
-        let frac = [x[0] - fl[0], x[1] - fl[1], x[2] - fl[2]];
-        let s = noise::value_noise_f32(cell, frac, a.seed);
-        let m = 1.0 + c.height_roughness * h_all.clamp(-1.0, 1.0);
-        let t = amplitude * m * s;
-        h_all += t;
-        if (k as u32) < octaves.full {
-            full += t;
-        } else {
-            out.partial_m[k - octaves.full as usize] = sigma * t;
-        }
-        state.advance(c.c1r0, c.c2, h_all);
-    }
+    let chain = (block.count, state, block.h_end + dh);
+    let full = super::direct_octaves_f32(
+        &block.anchors,
+        amplitudes,
+        c,
+        du,
+        sigma,
+        octaves,
+        chain,
+        &mut out,
+    );
     out.full_m = block.sigma_r * (df + full) + d_sigma * (block.f_r + df + full);
     out
 }

@@ -936,12 +936,31 @@ pub fn detail_texel_f32(
     octaves: LevelOctaves,
 ) -> DetailTexelF32 {
     let mut out = DetailTexelF32::default();
-    let mut state = warp::WarpStateF32::start();
-    let mut h_all = 0f32;
+    let chain = (0, warp::WarpStateF32::start(), 0.0);
+    let full = direct_octaves_f32(anchors, amplitudes, c, du, sigma, octaves, chain, &mut out);
+    out.full_m = sigma * full;
+    out
+}
+
+/// The held octaves from `chain.0` on, each lattice point an f32 fraction of its cell (the
+/// WGSL loop `detail_texel` ends with), from the warp state `chain.1` and Ĥ `chain.2` there:
+/// stores σ·t_k of the partial ones in `out` and returns the whole ones' sum (units of σ).
+#[allow(clippy::too_many_arguments)] // the WGSL loop's inputs, one for one
+pub(crate) fn direct_octaves_f32(
+    anchors: &[OctaveAnchorF32],
+    amplitudes: &[f32],
+    c: &DetailConstantsF32,
+    du: [f32; 3],
+    sigma: f32,
+    octaves: LevelOctaves,
+    chain: (usize, warp::WarpStateF32, f32),
+    out: &mut DetailTexelF32,
+) -> f32 {
+    let (first, mut state, mut h_all) = chain;
     let mut full = 0f32;
     let count = (octaves.full + octaves.partial) as usize;
-    for k in 0..count {
-        let a = &anchors[k];
+    let held = anchors.iter().zip(amplitudes).enumerate();
+    for (k, (a, &amplitude)) in held.take(count).skip(first) {
         let d = state.displacement(c.lever, c.t);
         let mut x = [0f32; 3];
         for (i, xi) in x.iter_mut().enumerate() {
@@ -959,7 +978,7 @@ pub fn detail_texel_f32(
         let frac = [x[0] - fl[0], x[1] - fl[1], x[2] - fl[2]];
         let s = noise::value_noise_f32(cell, frac, a.seed);
         let m = 1.0 + c.height_roughness * h_all.clamp(-1.0, 1.0);
-        let t = amplitudes[k] * m * s;
+        let t = amplitude * m * s;
         h_all += t;
         if (k as u32) < octaves.full {
             full += t;
@@ -968,8 +987,7 @@ pub fn detail_texel_f32(
         }
         state.advance(c.c1r0, c.c2, h_all);
     }
-    out.full_m = sigma * full;
-    out
+    full
 }
 
 fn unit(h: u32) -> f64 {
