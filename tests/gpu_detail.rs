@@ -23,7 +23,7 @@ use globe::procedural::{
     Detail, DetailParams, LevelOctaves, RoughnessMap, delta_texel_f32, detail_texel_f32,
 };
 use globe::render::GpuContext;
-use globe::render::gpu_data::DetailFillParams;
+use globe::render::gpu_data::{DetailFillParams, delta_block_at};
 use wgpu::util::DeviceExt;
 
 const DETAIL_FILL: &str = include_str!("../shaders/common/detail_fill.wgsl");
@@ -301,13 +301,7 @@ fn check_site(ctx: &GpuContext, kernel: &Kernel, detail: &Detail, site: &Site, l
     let anchors = detail.anchors(u_ref, count);
     let amplitudes = detail.amplitudes_f32();
     let constants = detail.constants_f32();
-    let block_steps = grid.anchor_block() as f64;
-    let block = detail.delta_block(
-        phi_r,
-        theta_r,
-        [block_steps * grid.dphi_rad, block_steps * grid.dtheta_rad],
-        octaves,
-    );
+    let block = delta_block_at(detail, &grid, gx, gy, octaves);
     assert_eq!(params.delta[0] as usize, block.count);
     // σ as the WGSL forms it from the (constant) relief map.
     let sigma_f32 = (params.sigma[0] + params.sigma[1] * RELIEF_M).clamp(0.0, params.sigma[2]);

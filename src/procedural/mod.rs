@@ -925,7 +925,7 @@ impl Detail {
     }
 }
 
-/// The f32 twin of the fill's detail (shaders/common/detail.wgsl `detail_texel`): octaves
+/// The f32 twin of the fill's detail (shaders/common/detail_fill.wgsl `detail_texel`): octaves
 /// `0..full + partial` at Δu from the anchors' reference point, amplitude `sigma`.
 pub fn detail_texel_f32(
     anchors: &[OctaveAnchorF32],

@@ -476,13 +476,7 @@ impl DetailFillParams {
         let map = detail.roughness();
         p.counts = [octaves.full, octaves.partial, map.cols, map.rows];
         p.amplitudes = amplitude_table(detail);
-        let block_rad = grid.anchor_block() as f64;
-        let block = detail.delta_block(
-            phi,
-            theta,
-            [block_rad * grid.dphi_rad, block_rad * grid.dtheta_rad],
-            octaves,
-        );
+        let block = delta_block_at(detail, grid, gx, gy, octaves);
         debug_assert_eq!(block.anchors.len(), count);
         for (o, a) in p.octaves.iter_mut().zip(&block.anchors) {
             *o = DetailOctaveParams::from(a);
@@ -507,6 +501,24 @@ impl DetailFillParams {
         p.relief_ref2 = [r.scale[0], r.scale[1], r.corr, block.sigma_r];
         (p, block.offset_m)
     }
+}
+
+/// The relative form (`procedural::delta`) of the fill block of `grid` whose corner is grid
+/// point (gx, gy): its texels lie within one anchor block from there.
+pub fn delta_block_at(
+    detail: &Detail,
+    grid: &LevelGrid,
+    gx: i64,
+    gy: i64,
+    octaves: LevelOctaves,
+) -> crate::procedural::DeltaBlock {
+    let steps = grid.anchor_block() as f64;
+    detail.delta_block(
+        gx as f64 * grid.dphi_rad,
+        gy as f64 * grid.dtheta_rad,
+        [steps * grid.dphi_rad, steps * grid.dtheta_rad],
+        octaves,
+    )
 }
 
 /// a_k, four to a vector.
