@@ -62,3 +62,79 @@ fn the_table_sky_matches_the_per_pixel_sky() {
         assert!(mean <= 0.25, "{name}: mean difference {mean}/255");
     }
 }
+
+/// From outside the atmosphere the sky pass shades only the rectangle around the shell's
+/// silhouette (`FrameInfo::sky_rect`); every pixel beyond it is black, as the pass would make
+/// it. Not one byte may differ from the sky shaded over the whole frame: the disk in the middle,
+/// the disk running off the frame's bottom and sides, and a shell the eye's plane cuts (no
+/// rectangle bounds its projection: the whole frame is shaded).
+#[test]
+fn from_space_the_sky_shades_only_the_shells_rectangle() {
+    let Some((ctx, _guard)) = common::gpu() else {
+        return;
+    };
+    let radius = globe::geo::EARTH_RADIUS_M;
+    let views = [
+        ("space", None, true),
+        (
+            "the disk off the bottom",
+            Some("-20,150,8000000,30,-45"),
+            true,
+        ),
+        (
+            "the shell beside the eye",
+            Some("45.6,10.6,3000000,0,-40"),
+            false,
+        ),
+    ];
+    for (name, spec, bounded) in views {
+        let mut rect = renderer(ctx, false);
+        let camera = match spec {
+            Some(text) => CameraSpec::parse(text, radius)
+                .unwrap()
+                .camera(|lat, lon| rect.terrain_height_m(lat, lon)),
+            None => Scene::by_name(name)
+                .unwrap()
+                .camera(|lat, lon| rect.terrain_height_m(lat, lon)),
+        };
+        let a = common::render(ctx, &mut rect, &camera, WIDTH_PX, HEIGHT_PX);
+        assert_eq!(
+            a.info.sky_rect.is_some(),
+            bounded,
+            "{name}: {:?}",
+            a.info.sky_rect
+        );
+        let r = a
+            .info
+            .sky_rect
+            .unwrap_or(globe::geo::projection::PixelRect {
+                x: 0,
+                y: 0,
+                width: WIDTH_PX,
+                height: HEIGHT_PX,
+            });
+        let mut whole = renderer(ctx, false);
+        whole.sky_whole_frame = true;
+        let b = common::render(ctx, &mut whole, &camera, WIDTH_PX, HEIGHT_PX);
+        assert!(b.info.sky_rect.is_none());
+        let differing = a
+            .rgba
+            .chunks(4)
+            .zip(b.rgba.chunks(4))
+            .filter(|(p, q)| p != q)
+            .count();
+        let share = f64::from(r.width * r.height) / f64::from(WIDTH_PX * HEIGHT_PX);
+        println!(
+            "{name}: sky rectangle {r:?} ({:.1} % of the frame), {differing} pixels differ",
+            100.0 * share
+        );
+        assert_eq!(differing, 0, "{name}: pixels the rectangle changed");
+        if name == "space" {
+            // The disk of 20 000 km up is about a fifth of the frame's height across.
+            assert!(
+                share < 0.2,
+                "space: the rectangle covers {share:.2} of the frame"
+            );
+        }
+    }
+}

@@ -1,6 +1,7 @@
 //! GPU side of the look (`crate::look`): the proto-texture array and the wave texture with
 //! their mip chains, their sampler, the look uniforms and the sky pass.
 
+use crate::geo::projection::PixelRect;
 use crate::look::proto::{self, MIP_LEVELS, MipKind, TEXTURE_SIZE};
 
 use super::gpu_data::LookUniforms;
@@ -314,8 +315,15 @@ impl LookResources {
         self.table_frame
     }
 
-    /// Draws the sky into the pixels the terrain left empty.
-    pub fn draw_sky(&self, pass: &mut wgpu::RenderPass<'_>) {
+    /// Draws the sky into the pixels the terrain left empty, within `rect` (None: the whole
+    /// frame; an empty one draws nothing).
+    pub fn draw_sky(&self, pass: &mut wgpu::RenderPass<'_>, rect: Option<PixelRect>) {
+        if let Some(r) = rect {
+            if r.width == 0 || r.height == 0 {
+                return;
+            }
+            pass.set_scissor_rect(r.x, r.y, r.width, r.height);
+        }
         pass.set_pipeline(if self.table_frame {
             &self.sky_table_pipeline
         } else {

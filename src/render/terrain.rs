@@ -11,6 +11,7 @@ use crate::clipmap::levels::LevelGrid;
 use crate::clipmap::selection::{DrawList, LevelSelection, SectorBounds, Variant};
 use crate::clipmap::{ClipmapSettings, RingMesh, RingVertex};
 use crate::geo::camera::Camera;
+use crate::geo::projection::{PixelRect, sphere_pixel_rect};
 use crate::look::{Atmosphere, LookSettings};
 use crate::plan::clipmap::DensityMap;
 use crate::plan::{
@@ -53,6 +54,11 @@ pub struct FrameInfo {
     pub ground_source: HeightSource,
     /// Linear RGB background: sky blue near the ground, black in space.
     pub sky_linear: [f64; 3],
+    /// The pixels the sky pass shades, from outside the atmosphere: the bounding rectangle of
+    /// its shell (`geo::projection::sphere_pixel_rect`); every pixel beyond is black, as the
+    /// pass would shade it. None: the whole frame (eye inside the shell, sky off, or a shell
+    /// the eye's plane cuts).
+    pub sky_rect: Option<PixelRect>,
     /// The streaming pipeline's state after this frame (DEM terrain only).
     pub stream: Option<FeedFrame>,
     /// What a planar LOD method draws near the viewer (None: the clipmap alone).
@@ -169,6 +175,9 @@ pub struct TerrainRenderer {
     pub use_passthrough: bool,
     /// Tests: integrate the sky per pixel even where the sky-view table would serve.
     pub sky_per_pixel: bool,
+    /// Tests: shade the sky over the whole frame, as before the shell's rectangle
+    /// ([`FrameInfo::sky_rect`]).
+    pub sky_whole_frame: bool,
     /// Tests: draw every range with the water's shading, as before the water cull (which
     /// still runs; only the draws ignore it).
     pub ignore_water_cull: bool,
@@ -238,6 +247,10 @@ struct WirePipelines {
     /// The projected grid's, without and with ray casting (built when first needed).
     grid: Option<GridPipelines>,
 }
+
+/// Pixels added around the atmosphere's silhouette ([`FrameInfo::sky_rect`]): the shader's f32
+/// test against the shell and the rectangle's f64 bound may disagree at the edge's pixel.
+const SKY_RECT_MARGIN_PX: f64 = 2.0;
 
 /// Fill dispatches a level may need in one frame. A level rewrites at most 2 rectangles of
 /// at most S × S texels, each cut along the anchor lattice of S/2 blocks
@@ -614,6 +627,7 @@ impl TerrainRenderer {
             look_time_s: 0.0,
             last_camera: None,
             use_passthrough: false,
+            sky_whole_frame: false,
             ignore_water_cull: false,
             sky_per_pixel: false,
             naive_bump: false,
@@ -1256,6 +1270,21 @@ impl TerrainRenderer {
         let inside = look.eye_radius_m < look.shell[1];
         self.look_resources
             .prepare_sky(encoder, self.look.sky && inside && !self.sky_per_pixel);
+        // From outside the shell, only the pixels its silhouette may cover need the sky's
+        // integral: the rest are black (a CPU rasteriser pays for every pixel of a full-screen
+        // pass, even where each returns at once).
+        let sky_rect = if self.look.sky && !inside && !self.sky_whole_frame {
+            sphere_pixel_rect(
+                view.fov_y_rad,
+                view.width_px,
+                view.height_px,
+                view.camera_from_view * -view.eye_view_m(),
+                self.atmosphere.top_radius_m(),
+                SKY_RECT_MARGIN_PX,
+            )
+        } else {
+            None
+        };
         if let Some(cull) = &mut self.water_cull {
             let entries: Vec<u32> = (clipmap.draw.levels.iter().zip(&clipmap.draw.variants))
                 .map(|(&l, &v)| super::water_cull::draw_entry(l, v != Variant::Plain))
@@ -1307,6 +1336,7 @@ impl TerrainRenderer {
             height_above_terrain_m: view.height_above_terrain_m,
             ground_source: view.ground_source,
             sky_linear: view.sky_linear,
+            sky_rect,
             stream,
             planar,
         }
@@ -1374,7 +1404,13 @@ impl TerrainRenderer {
         depth_store: wgpu::StoreOp,
         timestamps: Option<wgpu::RenderPassTimestampWrites<'_>>,
     ) {
-        let [r, g, b] = info.sky_linear;
+        // With the sky on, its pass shades every pixel the terrain leaves, black beyond the
+        // shell: the clear colour shows only outside `sky_rect`, where the pass would be black.
+        let [r, g, b] = if self.look.sky && !self.use_passthrough {
+            [0.0; 3]
+        } else {
+            info.sky_linear
+        };
         let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
             label: Some("terrain"),
             color_attachments: &[Some(wgpu::RenderPassColorAttachment {
@@ -1449,7 +1485,7 @@ impl TerrainRenderer {
                 }
             }
             if self.look.sky && !self.use_passthrough {
-                self.look_resources.draw_sky(pass);
+                self.look_resources.draw_sky(pass, info.sky_rect);
             }
             return;
         }
@@ -1524,7 +1560,7 @@ impl TerrainRenderer {
             }
         }
         if self.look.sky && !self.use_passthrough {
-            self.look_resources.draw_sky(pass);
+            self.look_resources.draw_sky(pass, info.sky_rect);
         }
     }
 }
