@@ -145,6 +145,11 @@ override WATER: bool = true;
 // dry (render::water_cull), the geometry rule max(h, level) kept.
 override WET: bool = true;
 override SKY: bool = true;
+// A frame seen from so far that every pixel's footprint spans many texture tiles and the
+// boundary noise's cells (render::terrain::FAR_FOOTPRINT_M): the proto-textures and waves read
+// their coarsest mip (one texel, the tile's mean) as the trilinear filter would there, and the
+// boundary octaves are 0 as their band limit makes them; none of their per-pixel work is done.
+override FAR: bool = false;
 // A planar LOD method draws near the viewer: the clipmap's fragments in its square go
 // (planar.wgsl). Geomorphing of the geomipmapping patches.
 override CUT: bool = false;
@@ -703,6 +708,9 @@ fn on_plane(v: vec3<f32>, axis: u32) -> vec2<f32> {
 // the unwrapped coordinates: the mip level is continuous across tiles).
 fn sample_albedo(layer: u32, uvw: vec3<f32>, dx: vec3<f32>, dy: vec3<f32>, pl: Planes) -> vec3<f32> {
     let l = i32(layer);
+    if FAR {
+        return textureSampleLevel(albedo, look_sampler, vec2<f32>(0.5), l, f32(PROTO_MIP_LEVELS - 1u)).rgb;
+    }
     let a = textureSampleLevel(albedo, look_sampler, fract(on_plane(uvw, pl.a)), l, lod_of(on_plane(dx, pl.a), on_plane(dy, pl.a))).rgb;
     let b = textureSampleLevel(albedo, look_sampler, fract(on_plane(uvw, pl.b)), l, lod_of(on_plane(dx, pl.b), on_plane(dy, pl.b))).rgb;
     return pl.wa * a + pl.wb * b;
@@ -715,6 +723,10 @@ fn from_plane(v: vec2<f32>, axis: u32) -> vec3<f32> {
 
 // Wave slopes as a world vector from the wave texture (½ + ½·slope).
 fn wave_slope(uvw: vec3<f32>, dx: vec3<f32>, dy: vec3<f32>, pl: Planes) -> vec3<f32> {
+    if FAR {
+        let m = textureSampleLevel(waves, look_sampler, vec2<f32>(0.5), f32(PROTO_MIP_LEVELS - 1u)).rg;
+        return pl.wa * from_plane(2.0 * m - 1.0, pl.a) + pl.wb * from_plane(2.0 * m - 1.0, pl.b);
+    }
     let a = textureSampleLevel(waves, look_sampler, fract(on_plane(uvw, pl.a)), lod_of(on_plane(dx, pl.a), on_plane(dy, pl.a))).rg;
     let b = textureSampleLevel(waves, look_sampler, fract(on_plane(uvw, pl.b)), lod_of(on_plane(dx, pl.b), on_plane(dy, pl.b))).rg;
     return pl.wa * from_plane(2.0 * a - 1.0, pl.a) + pl.wb * from_plane(2.0 * b - 1.0, pl.b);
@@ -825,15 +837,22 @@ fn shade(in_: VertexOut, rel_d: vec3<f32>) -> vec4<f32> {
             // Sea ice toward the poles (from 77° to 80° of latitude, the edge perturbed like
             // the land's boundaries): a surface type, not geometry (the surface stays at the
             // water level).
-            let na = boundary_octave(look.boundary_cell0, look.boundary_frac0, wrel, footprint_m);
+            var na = 0.0;
+            if !FAR {
+                na = boundary_octave(look.boundary_cell0, look.boundary_frac0, wrel, footprint_m);
+            }
             let ice = smoothstep(0.974, 0.985, abs(world_up.z) + 0.01 * na);
             let ice_c = sample_albedo(4u, uvw, uvw_dx, uvw_dy, pw) * (ambient + direct * max(dot(up, sun), 0.0));
             colour = mix(colour, ice_c, ice);
         }
     } else if TEXTURES && h >= 0.0 {
         // Proto-texturing (§4.2) by height, slope and latitude, boundaries perturbed.
-        let na = boundary_octave(look.boundary_cell0, look.boundary_frac0, wrel, footprint_m);
-        let nb = boundary_octave(look.boundary_cell1, look.boundary_frac1, wrel, footprint_m);
+        var na = 0.0;
+        var nb = 0.0;
+        if !FAR {
+            na = boundary_octave(look.boundary_cell0, look.boundary_frac0, wrel, footprint_m);
+            nb = boundary_octave(look.boundary_cell1, look.boundary_frac1, wrel, footprint_m);
+        }
         let q = clamp(1.6 * na + 0.8 * nb, -1.0, 1.0);
         let patches = clamp(0.5 + 1.2 * nb - 0.8 * na, 0.0, 1.0);
         let slope_v = 1.0 - clamp(dot(n_geometry, up), 0.0, 1.0);

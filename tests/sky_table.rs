@@ -2,6 +2,10 @@
 //! the sky pass reads one filtered texel of a per-frame table instead of integrating each
 //! pixel's ray. It must look the same: every pixel within 2/255 of the per-pixel sky, the
 //! sun's disk and its glow included; from space the per-pixel integral stays.
+//!
+//! Also here, the other two savings of a view from afar, each of which must change no pixel:
+//! the sky pass within the rectangle around the atmosphere's silhouette, and the terrain's
+//! look without the texture work that is constant there (`FrameInfo::far`).
 
 mod common;
 
@@ -136,5 +140,54 @@ fn from_space_the_sky_shades_only_the_shells_rectangle() {
                 "space: the rectangle covers {share:.2} of the frame"
             );
         }
+    }
+}
+
+/// From afar (`FrameInfo::far`: every pixel's footprint at least `FAR_FOOTPRINT_M`) the
+/// terrain's shading leaves out the proto-textures' and waves' per-pixel reads and the boundary
+/// noise, which are constant there. The image must be the same as with them: views from space,
+/// over the Alps (snow, rock and their slopes) and along the horizon from just above the
+/// threshold, where footprints are longest and most oblique.
+#[test]
+fn from_afar_the_look_leaves_out_its_constant_texture_work() {
+    let Some((ctx, _guard)) = common::gpu() else {
+        return;
+    };
+    let radius = globe::geo::EARTH_RADIUS_M;
+    let views = [
+        ("space", None),
+        ("over the Alps", Some("46.5,9.5,1000000,0,-45")),
+        ("the horizon from low", Some("30,-30,300000,60,-12")),
+    ];
+    for (name, spec) in views {
+        let mut far = common::full_look_renderer(ctx, true);
+        let camera = match spec {
+            Some(text) => CameraSpec::parse(text, radius)
+                .unwrap()
+                .camera(|lat, lon| far.terrain_height_m(lat, lon)),
+            None => Scene::by_name(name)
+                .unwrap()
+                .camera(|lat, lon| far.terrain_height_m(lat, lon)),
+        };
+        let a = common::render(ctx, &mut far, &camera, WIDTH_PX, HEIGHT_PX);
+        assert!(a.info.far, "{name}: drawn as seen from afar");
+        let mut near = common::full_look_renderer(ctx, true);
+        near.never_far = true;
+        let b = common::render(ctx, &mut near, &camera, WIDTH_PX, HEIGHT_PX);
+        assert!(!b.info.far);
+        let diffs: Vec<u8> = a
+            .rgba
+            .chunks(4)
+            .zip(b.rgba.chunks(4))
+            .map(|(p, q)| (0..3).map(|c| p[c].abs_diff(q[c])).max().unwrap())
+            .collect();
+        let max = diffs.iter().copied().max().unwrap();
+        let differing = diffs.iter().filter(|&&d| d > 0).count();
+        println!("{name}: {differing} pixels differ, by at most {max}/255");
+        assert!(max <= 1, "{name}: a pixel differs by {max}/255");
+        assert!(
+            differing * 1000 <= diffs.len(),
+            "{name}: {differing} pixels differ"
+        );
     }
 }

@@ -59,6 +59,10 @@ pub struct FrameInfo {
     /// pass would shade it. None: the whole frame (eye inside the shell, sky off, or a shell
     /// the eye's plane cuts).
     pub sky_rect: Option<PixelRect>,
+    /// Every pixel's footprint on the terrain is at least [`FAR_FOOTPRINT_M`]: the clipmap is
+    /// drawn with the pipelines whose `FAR` leaves out the look's per-pixel texture work
+    /// (exact there: see [`far_footprint_m`]).
+    pub far: bool,
     /// The streaming pipeline's state after this frame (DEM terrain only).
     pub stream: Option<FeedFrame>,
     /// What a planar LOD method draws near the viewer (None: the clipmap alone).
@@ -175,6 +179,9 @@ pub struct TerrainRenderer {
     pub use_passthrough: bool,
     /// Tests: integrate the sky per pixel even where the sky-view table would serve.
     pub sky_per_pixel: bool,
+    /// Tests: shade every frame with the proto-textures' and waves' per-pixel reads and the
+    /// boundary noise, as before [`FrameInfo::far`].
+    pub never_far: bool,
     /// Tests: shade the sky over the whole frame, as before the shell's rectangle
     /// ([`FrameInfo::sky_rect`]).
     pub sky_whole_frame: bool,
@@ -214,6 +221,8 @@ pub struct TerrainRenderer {
     grid_pipelines: Option<GridPipelines>,
     /// The wireframe overlay's (built when it is first switched on).
     wire_pipelines: Option<WirePipelines>,
+    /// The clipmap's for frames seen from afar (`FAR`: built on the first such frame).
+    far_pipelines: Option<ClipmapPipelines>,
 }
 
 /// The clipmap's pipelines, one per `clipmap::selection::Variant` (plain, blend band,
@@ -246,6 +255,33 @@ struct WirePipelines {
     geomip: wgpu::RenderPipeline,
     /// The projected grid's, without and with ray casting (built when first needed).
     grid: Option<GridPipelines>,
+}
+
+/// The smallest footprint (metres of terrain per pixel) a frame drawn with `FAR` may have.
+/// There the look's per-pixel texture work is constant: the boundary octaves are 0 from a
+/// quarter of their coarser cell on (`boundary_octave`'s band limit), and the proto-textures'
+/// and waves' trilinear reads take their coarsest mip (one texel) once a pixel spans a tile on
+/// the texture's plane. The plane projection may shorten a footprint: 16 × the largest tile
+/// leaves 4 mips for it (a plane within 86° of the surface; water is level, its planes within
+/// 74° of it).
+pub const FAR_FOOTPRINT_M: f64 = {
+    let boundary = 0.25 * crate::look::BOUNDARY_CELLS_M[0];
+    let waves = 16.0 * crate::look::WAVE_TILES_M[0];
+    let albedo = 16.0 * crate::look::TEXTURE_TILE_M;
+    boundary.max(waves).max(albedo)
+};
+
+/// A lower bound on every pixel's footprint on the terrain (metres per pixel, the length of
+/// the position's screen derivative along x or y): the nearest terrain is at least the eye's
+/// height above the highest, `highest_m`, and a pixel's angle is at least Δ/(1 + t_x² + t_y²)
+/// (Δ = 2·t_y/H the pixel's width on the image plane at distance 1, t the half field's
+/// tangents: a pinhole's corner pixel); an oblique surface only stretches the footprint.
+pub fn far_footprint_m(view: &ViewPlan, highest_m: f64) -> f64 {
+    let t_y = (0.5 * view.fov_y_rad).tan();
+    let t_x = t_y * view.aspect;
+    let pixel = 2.0 * t_y / f64::from(view.height_px.max(1));
+    let nearest = (view.camera.altitude_m - highest_m).max(0.0);
+    nearest * pixel / (1.0 + t_x * t_x + t_y * t_y)
 }
 
 /// Pixels added around the atmosphere's silhouette ([`FrameInfo::sky_rect`]): the shader's f32
@@ -628,6 +664,7 @@ impl TerrainRenderer {
             last_camera: None,
             use_passthrough: false,
             sky_whole_frame: false,
+            never_far: false,
             ignore_water_cull: false,
             sky_per_pixel: false,
             naive_bump: false,
@@ -649,6 +686,7 @@ impl TerrainRenderer {
             planar_pipelines: None,
             grid_pipelines: None,
             wire_pipelines: None,
+            far_pipelines: None,
         })
     }
 
@@ -1273,6 +1311,16 @@ impl TerrainRenderer {
         // From outside the shell, only the pixels its silhouette may cover need the sky's
         // integral: the rest are black (a CPU rasteriser pays for every pixel of a full-screen
         // pass, even where each returns at once).
+        let far = (self.look.textures || self.terrain.water_level_m().is_some())
+            && !self.never_far
+            && !self.overlays.wireframe
+            && far_footprint_m(&view, self.terrain.height_range_m().1) >= FAR_FOOTPRINT_M;
+        if far && self.far_pipelines.is_none() {
+            self.far_pipelines = Some(
+                self.pipeline_parts
+                    .build_far(&self.pipeline_parts.device.clone(), self.look),
+            );
+        }
         let sky_rect = if self.look.sky && !inside && !self.sky_whole_frame {
             sphere_pixel_rect(
                 view.fov_y_rad,
@@ -1337,6 +1385,7 @@ impl TerrainRenderer {
             ground_source: view.ground_source,
             sky_linear: view.sky_linear,
             sky_rect,
+            far,
             stream,
             planar,
         }
@@ -1379,6 +1428,7 @@ impl TerrainRenderer {
             ));
         }
         self.grid_pipelines = None;
+        self.far_pipelines = None;
         self.build_grid_pipelines(device);
     }
 
@@ -1494,9 +1544,10 @@ impl TerrainRenderer {
             (Some(draw), Some(pipelines)) if !self.use_passthrough => Some((draw, pipelines)),
             _ => None,
         };
-        let uncut = match wire {
-            Some(w) => &w.clipmap,
-            None => &self.pipelines,
+        let uncut = match (wire, &self.far_pipelines) {
+            (Some(w), _) => &w.clipmap,
+            (None, Some(far)) if info.far => far,
+            (None, _) => &self.pipelines,
         };
         let cull = self
             .water_cull
@@ -1716,6 +1767,7 @@ impl PipelineParts {
         look: LookSettings,
         source: ClipmapVertices,
         cut: bool,
+        far: bool,
     ) -> ClipmapPipelines {
         let (vs, input) = match source {
             ClipmapVertices::Placed if look.sky => ("vs_placed_haze", VertexInput::Placed),
@@ -1726,9 +1778,11 @@ impl PipelineParts {
         let wire = source == ClipmapVertices::Wire;
         let build = |wet: bool| {
             [(false, false), (false, true), (true, true)].map(|(morph, blend)| {
-                let c = self.constants(look, morph, blend, cut, wet, wire);
-                let label =
-                    format!("terrain {vs} (morph {morph}, blend {blend}, cut {cut}, wet {wet})");
+                let mut c = self.constants(look, morph, blend, cut, wet, wire);
+                c.push(("FAR", if far { 1.0 } else { 0.0 }));
+                let label = format!(
+                    "terrain {vs} (morph {morph}, blend {blend}, cut {cut}, wet {wet}, far {far})"
+                );
                 self.pipeline(
                     device,
                     &label,
@@ -1840,9 +1894,14 @@ impl PipelineParts {
         geomorph: bool,
     ) -> PlanarPipelines {
         PlanarPipelines {
-            clipmap_cut: self.clipmap_variants(device, look, self.clipmap_source(), true),
+            clipmap_cut: self.clipmap_variants(device, look, self.clipmap_source(), true, false),
             geomip: self.geomip_pipeline(device, look, geomorph, "vs_geomip"),
         }
+    }
+
+    /// The clipmap's pipelines for a frame seen from afar ([`FrameInfo::far`]).
+    fn build_far(&self, device: &wgpu::Device, look: LookSettings) -> ClipmapPipelines {
+        self.clipmap_variants(device, look, self.clipmap_source(), false, true)
     }
 
     /// The wireframe overlay's pipelines: every method's, drawn without an index buffer.
@@ -1853,8 +1912,8 @@ impl PipelineParts {
         geomorph: bool,
     ) -> WirePipelines {
         WirePipelines {
-            clipmap: self.clipmap_variants(device, look, ClipmapVertices::Wire, false),
-            clipmap_cut: self.clipmap_variants(device, look, ClipmapVertices::Wire, true),
+            clipmap: self.clipmap_variants(device, look, ClipmapVertices::Wire, false, false),
+            clipmap_cut: self.clipmap_variants(device, look, ClipmapVertices::Wire, true, false),
             geomip: self.geomip_pipeline(device, look, geomorph, "vs_geomip_wire"),
             grid: None,
         }
@@ -1873,7 +1932,7 @@ impl PipelineParts {
         wgpu::RenderPipeline,
         Option<[wgpu::ComputePipeline; 3]>,
     ) {
-        let pipelines = self.clipmap_variants(device, look, self.clipmap_source(), false);
+        let pipelines = self.clipmap_variants(device, look, self.clipmap_source(), false, false);
         let passthrough = self.pipeline(
             device,
             "pass-through pipeline",

@@ -796,6 +796,7 @@ mod tests {
             ground_source: HeightSource::Tiles,
             sky_linear: [0.0; 3],
             sky_rect: None,
+            far: false,
             stream: Some(Default::default()),
             planar: None,
         };
