@@ -1,8 +1,10 @@
 // The sky pass (README "The look"): one full-screen triangle drawn after the terrain at the far
-// depth (reversed-Z 0), so it shades only the pixels the terrain left empty. Each pixel's ray
-// from the eye is integrated through the atmosphere (common/look.wgsl): the sky from the
-// ground, the thin glow around the disk from space, the sun's disk; black beyond the shell.
-// Where the ray meets the planet's sphere (no terrain drawn there), it stops there.
+// depth (reversed-Z 0), so it shades only the pixels the terrain left empty; from outside the
+// atmosphere, only the ring of directions that can meet the shell (vs_sky_ring: a CPU
+// rasteriser pays for every pixel a pass covers). Each pixel's ray from the eye is integrated
+// through the atmosphere (common/look.wgsl): the sky from the ground, the thin glow around the
+// disk from space, the sun's disk; black beyond the shell. Where the ray meets the planet's
+// sphere (no terrain drawn there), it stops there.
 //
 // With the eye inside the atmosphere the integral is taken once per frame per direction of a
 // sky-view table (cs_sky_table, after Hillaire 2020) instead of once per pixel: the sky is a
@@ -22,7 +24,6 @@ override TABLE: bool = false;
 
 struct SkyOut {
     @builtin(position) clip: vec4<f32>,
-    @location(0) ndc: vec2<f32>,
 }
 
 @vertex
@@ -32,7 +33,26 @@ fn vs_sky(@builtin(vertex_index) index: u32) -> SkyOut {
     let y = f32((index & 2u) * 2u) - 1.0;
     var out: SkyOut;
     out.clip = vec4<f32>(x, y, 0.0, 1.0);
-    out.ndc = vec2<f32>(x, y);
+    return out;
+}
+
+// From outside the shell: the ring of directions between the cone of rays that meet a sphere
+// inside all terrain and the cone of rays that meet the shell (look::SkyRing, whose `contains`
+// is this polygon's Rust twin), SKY_RING_SEGMENTS quads of two triangles each: corners inner k,
+// outer k, outer k+1 and inner k, outer k+1, inner k+1. The vertices lie far beyond all terrain,
+// so the depth test still leaves the terrain's pixels alone; the rest of the frame keeps the
+// clear colour, the black the pass would give there.
+@vertex
+fn vs_sky_ring(@builtin(vertex_index) index: u32) -> SkyOut {
+    let corner = index % 6u;
+    let next = corner == 2u || corner == 4u || corner == 5u;
+    let outer = corner == 1u || corner == 2u || corner == 4u;
+    let k = (index / 6u + select(0u, 1u, next)) % SKY_RING_SEGMENTS;
+    let azimuth = f32(k) * (6.28318530718 / f32(SKY_RING_SEGMENTS));
+    let t = select(look.sky_ring.x, look.sky_ring.y, outer);
+    let rel = vec3<f32>(t * cos(azimuth), t * sin(azimuth), -1.0) * look.sky_ring.z;
+    var out: SkyOut;
+    out.clip = look.clip_from_view * vec4<f32>(rel, 1.0);
     return out;
 }
 
@@ -99,7 +119,9 @@ fn cs_sky_table(@builtin(global_invocation_id) id: vec3<u32>) {
 
 @fragment
 fn fs_sky(in: SkyOut) -> @location(0) vec4<f32> {
-    let p = look.view_from_clip * vec4<f32>(in.ndc, 1.0, 1.0);
+    // The pixel's centre in NDC (the same whichever geometry covers it).
+    let ndc = vec2<f32>(in.clip.x * look.viewport.z - 1.0, 1.0 - in.clip.y * look.viewport.w);
+    let p = look.view_from_clip * vec4<f32>(ndc, 1.0, 1.0);
     let d = normalize(p.xyz / p.w);
     let eye = vec3<f32>(0.0, 0.0, look.eye_radius_m);
     let sun = look.sun.xyz;

@@ -4,7 +4,7 @@
 //! sun's disk and its glow included; from space the per-pixel integral stays.
 //!
 //! Also here, the other two savings of a view from afar, each of which must change no pixel:
-//! the sky pass within the rectangle around the atmosphere's silhouette, and the terrain's
+//! the sky pass over the ring of directions that can meet the shell, and the terrain's
 //! look without the texture work that is constant there (`FrameInfo::far`).
 
 mod common;
@@ -67,13 +67,13 @@ fn the_table_sky_matches_the_per_pixel_sky() {
     }
 }
 
-/// From outside the atmosphere the sky pass shades only the rectangle around the shell's
-/// silhouette (`FrameInfo::sky_rect`); every pixel beyond it is black, as the pass would make
-/// it. Not one byte may differ from the sky shaded over the whole frame: the disk in the middle,
-/// the disk running off the frame's bottom and sides, and a shell the eye's plane cuts (no
-/// rectangle bounds its projection: the whole frame is shaded).
+/// From outside the atmosphere the sky pass shades only the ring of directions that can meet
+/// the shell and miss the terrain (`FrameInfo::sky_ring`); every pixel beyond it is black, as
+/// the pass would make it, or terrain. Not one byte may differ from the sky shaded over the
+/// whole frame: the disk in the middle, the disk running off the frame, a shell the eye's plane
+/// cuts, and the limb from low above the shell.
 #[test]
-fn from_space_the_sky_shades_only_the_shells_rectangle() {
+fn from_space_the_sky_shades_only_the_shells_ring() {
     let Some((ctx, _guard)) = common::gpu() else {
         return;
     };
@@ -88,56 +88,64 @@ fn from_space_the_sky_shades_only_the_shells_rectangle() {
         (
             "the shell beside the eye",
             Some("45.6,10.6,3000000,0,-40"),
-            false,
+            true,
         ),
+        ("the limb from 400 km", Some("60,-40,400000,200,-10"), true),
+        ("inside the shell", Some("45.6,10.6,50000,0,-10"), false),
     ];
-    for (name, spec, bounded) in views {
-        let mut rect = renderer(ctx, false);
+    for (name, spec, ring) in views {
+        let mut with_ring = renderer(ctx, false);
         let camera = match spec {
             Some(text) => CameraSpec::parse(text, radius)
                 .unwrap()
-                .camera(|lat, lon| rect.terrain_height_m(lat, lon)),
+                .camera(|lat, lon| with_ring.terrain_height_m(lat, lon)),
             None => Scene::by_name(name)
                 .unwrap()
-                .camera(|lat, lon| rect.terrain_height_m(lat, lon)),
+                .camera(|lat, lon| with_ring.terrain_height_m(lat, lon)),
         };
-        let a = common::render(ctx, &mut rect, &camera, WIDTH_PX, HEIGHT_PX);
+        let a = common::render(ctx, &mut with_ring, &camera, WIDTH_PX, HEIGHT_PX);
         assert_eq!(
-            a.info.sky_rect.is_some(),
-            bounded,
+            a.info.sky_ring.is_some(),
+            ring,
             "{name}: {:?}",
-            a.info.sky_rect
+            a.info.sky_ring
         );
-        let r = a
-            .info
-            .sky_rect
-            .unwrap_or(globe::geo::projection::PixelRect {
-                x: 0,
-                y: 0,
-                width: WIDTH_PX,
-                height: HEIGHT_PX,
-            });
         let mut whole = renderer(ctx, false);
         whole.sky_whole_frame = true;
         let b = common::render(ctx, &mut whole, &camera, WIDTH_PX, HEIGHT_PX);
-        assert!(b.info.sky_rect.is_none());
+        assert!(b.info.sky_ring.is_none());
         let differing = a
             .rgba
             .chunks(4)
             .zip(b.rgba.chunks(4))
             .filter(|(p, q)| p != q)
             .count();
-        let share = f64::from(r.width * r.height) / f64::from(WIDTH_PX * HEIGHT_PX);
+        // The ring's share of the frame: pixels whose ray it contains (its Rust twin).
+        let share = a.info.sky_ring.map_or(1.0, |r| {
+            let inside = (0..WIDTH_PX * HEIGHT_PX)
+                .filter(|i| {
+                    let d = globe::geo::camera::pixel_ray_view(
+                        &camera,
+                        i % WIDTH_PX,
+                        i / WIDTH_PX,
+                        WIDTH_PX,
+                        HEIGHT_PX,
+                    );
+                    r.contains(d)
+                })
+                .count();
+            inside as f64 / f64::from(WIDTH_PX * HEIGHT_PX)
+        });
         println!(
-            "{name}: sky rectangle {r:?} ({:.1} % of the frame), {differing} pixels differ",
+            "{name}: sky ring over {:.1} % of the frame, {differing} pixels differ",
             100.0 * share
         );
-        assert_eq!(differing, 0, "{name}: pixels the rectangle changed");
+        assert_eq!(differing, 0, "{name}: pixels the ring changed");
         if name == "space" {
-            // The disk of 20 000 km up is about a fifth of the frame's height across.
+            // The glow of 20 000 km up is a thin ring around a disk a fifth of the frame across.
             assert!(
-                share < 0.2,
-                "space: the rectangle covers {share:.2} of the frame"
+                share < 0.05,
+                "space: the ring covers {share:.3} of the frame"
             );
         }
     }

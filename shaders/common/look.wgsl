@@ -45,6 +45,13 @@ struct LookUniforms {
     water_level_m: f32,
     sun_cos: f32,
     time_s: f32,
+    // View → clip space (the sky ring's vertices).
+    clip_from_view: mat4x4<f32>,
+    // Frame width, height (pixels), 2/width, 2/height.
+    viewport: vec4<f32>,
+    // The sky ring (look::SkyRing, sky.wgsl vs_sky_ring): tan of its inner and outer vertices'
+    // angle from −z̃, their distance (m), unused.
+    sky_ring: vec4<f32>,
 }
 
 // Unit view vector → world (ECEF) vector.

@@ -218,11 +218,102 @@ fn exp3(v: DVec3) -> DVec3 {
     DVec3::new(v.x.exp(), v.y.exp(), v.z.exp())
 }
 
+/// Segments around the sky pass's ring ([`SkyRing`]).
+pub const SKY_RING_SEGMENTS: u32 = 128;
+
+/// The directions the sky pass must shade from outside the atmosphere: the annulus between
+/// the cone of rays that meet a sphere inside all terrain (those hit the terrain first, which
+/// the terrain pass has drawn) and the cone of rays that meet the shell (beyond it the sky is
+/// black). Both cones are around the direction to the planet's centre (−z̃ in view space).
+/// Drawn as [`SKY_RING_SEGMENTS`] quads whose vertices are directions at tan(angle) from that
+/// axis: each edge is a straight line on screen (a great circle of directions), so the outer
+/// vertices are pushed out by 1/cos(π/N) to circumscribe the outer cone and the inner ones lie
+/// on the inner cone, whose chords then lie inside it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SkyRing {
+    /// tan of the inner vertices' angle from the axis.
+    pub tan_inner: f64,
+    /// tan of the outer vertices' angle from the axis.
+    pub tan_outer: f64,
+}
+
+impl SkyRing {
+    /// The ring seen from `eye_radius_m` for terrain everywhere above `inner_radius_m` and the
+    /// shell's `outer_radius_m`, each cone widened by `margin_rad` (a few pixels: the shader's
+    /// f32 tests against the shell and the rasteriser's edges). None where the eye is inside
+    /// the shell or so close above it that the outer cone nears 90° (a full-screen pass then).
+    pub fn new(
+        eye_radius_m: f64,
+        inner_radius_m: f64,
+        outer_radius_m: f64,
+        margin_rad: f64,
+    ) -> Option<Self> {
+        if eye_radius_m <= outer_radius_m {
+            return None;
+        }
+        let outer = (outer_radius_m / eye_radius_m).asin() + margin_rad;
+        if outer >= 89f64.to_radians() {
+            return None;
+        }
+        let inner = ((inner_radius_m.max(0.0) / eye_radius_m).asin() - margin_rad).max(0.0);
+        let half_segment = std::f64::consts::PI / f64::from(SKY_RING_SEGMENTS);
+        Some(Self {
+            tan_inner: inner.tan(),
+            tan_outer: outer.tan() / half_segment.cos(),
+        })
+    }
+
+    /// The ring's polygon (vertex azimuths k·2π/N) contains direction `d` (view space, the
+    /// axis −z̃): between the inner polygon and the outer one. A direction's angle from the
+    /// axis along azimuth ψ inside segment k is bounded by the chord between its two vertices.
+    pub fn contains(&self, d: DVec3) -> bool {
+        if d.z >= 0.0 {
+            return false;
+        }
+        // The direction's point on the plane z = −1.
+        let (x, y) = (d.x / -d.z, d.y / -d.z);
+        let step = std::f64::consts::TAU / f64::from(SKY_RING_SEGMENTS);
+        let psi = y.atan2(x).rem_euclid(std::f64::consts::TAU);
+        let k = (psi / step).floor();
+        // Distance of the chord between the vertices at azimuths k·step and (k+1)·step, radius
+        // t, from the origin along ψ: t·cos(step/2)/cos(ψ − centre).
+        let centre = (k + 0.5) * step;
+        let along = |t: f64| t * (0.5 * step).cos() / (psi - centre).cos();
+        let r = x.hypot(y);
+        r >= along(self.tan_inner) && r <= along(self.tan_outer)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
 
     const R: f64 = 6_371_000.0;
+
+    /// Every direction that meets the shell but not the inner sphere lies inside the ring's
+    /// polygon, with the margin to spare, from just above the shell to the Moon's distance.
+    #[test]
+    fn the_sky_ring_covers_the_rays_between_the_cones() {
+        let (inner_r, outer_r) = (R - 12_000.0, R + 100_000.0);
+        for eye in [R + 150_000.0, R + 400_000.0, R + 3.0e6, R + 2.0e7, 3.8e8] {
+            let margin = 1e-4;
+            let ring = SkyRing::new(eye, inner_r, outer_r, margin).expect("outside the shell");
+            let (a_in, a_out) = ((inner_r / eye).asin(), (outer_r / eye).asin());
+            for i in 0..2000 {
+                let psi = i as f64 * std::f64::consts::TAU / 2000.0 + 0.1234;
+                for j in 0..=50 {
+                    let a = a_in + (a_out - a_in) * j as f64 / 50.0;
+                    for a in [a, a - 0.9 * margin, a + 0.9 * margin] {
+                        let d = DVec3::new(a.sin() * psi.cos(), a.sin() * psi.sin(), -a.cos());
+                        assert!(ring.contains(d), "eye {eye}: angle {a} azimuth {psi}");
+                    }
+                }
+            }
+        }
+        // Inside the shell, or just above it with the cone near 90°: the whole frame.
+        assert!(SkyRing::new(R + 50_000.0, inner_r, outer_r, 1e-4).is_none());
+        assert!(SkyRing::new(R + 100_100.0, inner_r, outer_r, 1e-4).is_none());
+    }
 
     #[test]
     fn chapman_column_is_within_half_a_percent_of_the_integral() {

@@ -8,7 +8,7 @@
 pub mod atmosphere;
 pub mod proto;
 
-pub use atmosphere::Atmosphere;
+pub use atmosphere::{Atmosphere, SKY_RING_SEGMENTS, SkyRing};
 pub use proto::MipKind;
 
 /// Which parts of the look are drawn. Each off gives back the plain image: hypsometric tint,

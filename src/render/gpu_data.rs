@@ -191,6 +191,14 @@ pub struct LookUniforms {
     /// Cosine of the sun disk's angular radius.
     pub sun_cos: f32,
     pub time_s: f32,
+    /// View → clip (the sky ring's vertices).
+    pub clip_from_view: [[f32; 4]; 4],
+    /// Frame width and height in pixels, 2/width, 2/height (a fragment's NDC from its pixel).
+    pub viewport: [f32; 4],
+    /// The sky ring (`look::SkyRing`): tan of its inner and outer vertices' angle from −z̃,
+    /// the distance its vertices are placed at (beyond all terrain: their depth stays behind
+    /// it), 0.
+    pub sky_ring: [f32; 4],
 }
 
 /// `LevelUniforms` in `shaders/terrain.wgsl`: one per level, `MAX_LEVELS` of them.
@@ -734,7 +742,7 @@ gpu_struct!(LookUniforms as "LookUniforms" {
     view_from_clip, world0, world1, world2, tex_anchor, boundary_cell0, boundary_frac0,
     boundary_cell1, boundary_frac1, wave_anchor0, wave_anchor1,
     rayleigh, mie, shell, light, sky_zenith, sky_horizon, sun, eye_radius_m, water_level_m,
-    sun_cos, time_s,
+    sun_cos, time_s, clip_from_view, viewport, sky_ring,
 });
 gpu_struct!(LevelUniforms as "LevelUniforms" {
     grid_x_viewer, grid_y_viewer, inv_dphi, inv_dtheta, dtheta_rad, detail_full, detail_end,
@@ -1093,6 +1101,15 @@ impl LookUniforms {
             water_level_m: water_level_m.unwrap_or(f64::NEG_INFINITY).max(-1e30) as f32,
             // The sun's disk: 0.27° of angular radius.
             sun_cos: 0.27f64.to_radians().cos() as f32,
+            clip_from_view: view.clip_from_view.as_mat4().to_cols_array_2d(),
+            viewport: {
+                let (w, h) = (
+                    f64::from(view.width_px.max(1)),
+                    f64::from(view.height_px.max(1)),
+                );
+                [w as f32, h as f32, (2.0 / w) as f32, (2.0 / h) as f32]
+            },
+            sky_ring: [0.0; 4],
             time_s: time_s as f32,
         }
     }

@@ -1,8 +1,8 @@
 //! GPU side of the look (`crate::look`): the proto-texture array and the wave texture with
 //! their mip chains, their sampler, the look uniforms and the sky pass.
 
-use crate::geo::projection::PixelRect;
 use crate::look::proto::{self, MIP_LEVELS, MipKind, TEXTURE_SIZE};
+use crate::look::{SKY_RING_SEGMENTS, SkyRing};
 
 use super::gpu_data::LookUniforms;
 use super::shader;
@@ -20,6 +20,8 @@ pub struct LookResources {
     pub waves_view: wgpu::TextureView,
     pub sampler: wgpu::Sampler,
     sky_pipeline: wgpu::RenderPipeline,
+    /// The per-pixel sky over the ring of directions that can meet the shell (from outside it).
+    sky_ring_pipeline: wgpu::RenderPipeline,
     sky_bind_group: wgpu::BindGroup,
     /// The sky from the table (`TABLE` on), the pass that fills the table and its bind
     /// groups (group 0: the look uniforms; group 1: the table to write).
@@ -95,7 +97,7 @@ impl LookResources {
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("sky layout"),
             entries: &[
-                uniform_entry(wgpu::ShaderStages::FRAGMENT),
+                uniform_entry(wgpu::ShaderStages::VERTEX_FRAGMENT),
                 wgpu::BindGroupLayoutEntry {
                     binding: 1,
                     visibility: wgpu::ShaderStages::FRAGMENT,
@@ -214,18 +216,14 @@ impl LookResources {
             compilation_options: Default::default(),
             cache: None,
         });
-        let sky_pipeline = |table: bool| {
+        let sky_pipeline = |table: bool, vs: &str| {
             let constants = [("TABLE", if table { 1.0 } else { 0.0 })];
             device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-                label: Some(if table {
-                    "sky pipeline (table)"
-                } else {
-                    "sky pipeline"
-                }),
+                label: Some(&format!("sky pipeline ({vs}, table {table})")),
                 layout: Some(&pipeline_layout),
                 vertex: wgpu::VertexState {
                     module: &module,
-                    entry_point: Some("vs_sky"),
+                    entry_point: Some(vs),
                     compilation_options: Default::default(),
                     buffers: &[],
                 },
@@ -263,9 +261,10 @@ impl LookResources {
             waves,
             waves_view,
             sampler,
-            sky_pipeline: sky_pipeline(false),
+            sky_pipeline: sky_pipeline(false, "vs_sky"),
+            sky_ring_pipeline: sky_pipeline(false, "vs_sky_ring"),
             sky_bind_group,
-            sky_table_pipeline: sky_pipeline(true),
+            sky_table_pipeline: sky_pipeline(true, "vs_sky"),
             table_pass,
             table_uniforms,
             table_target,
@@ -315,22 +314,24 @@ impl LookResources {
         self.table_frame
     }
 
-    /// Draws the sky into the pixels the terrain left empty, within `rect` (None: the whole
-    /// frame; an empty one draws nothing).
-    pub fn draw_sky(&self, pass: &mut wgpu::RenderPass<'_>, rect: Option<PixelRect>) {
-        if let Some(r) = rect {
-            if r.width == 0 || r.height == 0 {
-                return;
-            }
-            pass.set_scissor_rect(r.x, r.y, r.width, r.height);
-        }
-        pass.set_pipeline(if self.table_frame {
-            &self.sky_table_pipeline
-        } else {
-            &self.sky_pipeline
-        });
+    /// Draws the sky into the pixels the terrain left empty: with `ring` (from outside the
+    /// shell, the per-pixel sky) only over its directions, else over the whole frame.
+    pub fn draw_sky(&self, pass: &mut wgpu::RenderPass<'_>, ring: Option<SkyRing>) {
         pass.set_bind_group(0, &self.sky_bind_group, &[]);
-        pass.draw(0..3, 0..1);
+        match ring {
+            Some(_) if !self.table_frame => {
+                pass.set_pipeline(&self.sky_ring_pipeline);
+                pass.draw(0..6 * SKY_RING_SEGMENTS, 0..1);
+            }
+            _ => {
+                pass.set_pipeline(if self.table_frame {
+                    &self.sky_table_pipeline
+                } else {
+                    &self.sky_pipeline
+                });
+                pass.draw(0..3, 0..1);
+            }
+        }
     }
 }
 

@@ -61,6 +61,7 @@ pub fn shared_constants() -> Vec<SharedConstant> {
         c("PLACE_NONE", super::placement::PLACE_NONE),
         c("PROTO_TEXTURE_SIZE", crate::look::proto::TEXTURE_SIZE),
         c("PROTO_MIP_LEVELS", crate::look::proto::MIP_LEVELS),
+        c("SKY_RING_SEGMENTS", crate::look::SKY_RING_SEGMENTS),
         c("DETAIL_AMPLITUDE_VECS", (MAX_OCTAVES / 4) as u32),
         c("TRANSFORM_DIRECT", TransformForm::Direct.shader_code()),
         c("TRANSFORM_STABLE", TransformForm::Stable.shader_code()),

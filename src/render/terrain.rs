@@ -11,8 +11,7 @@ use crate::clipmap::levels::LevelGrid;
 use crate::clipmap::selection::{DrawList, LevelSelection, SectorBounds, Variant};
 use crate::clipmap::{ClipmapSettings, RingMesh, RingVertex};
 use crate::geo::camera::Camera;
-use crate::geo::projection::{PixelRect, sphere_pixel_rect};
-use crate::look::{Atmosphere, LookSettings};
+use crate::look::{Atmosphere, LookSettings, SkyRing};
 use crate::plan::clipmap::DensityMap;
 use crate::plan::{
     ClipmapPlan, GeomipState, HeightSource, LodMode, LodSettings, TerrainQuery, ViewPlan,
@@ -54,11 +53,10 @@ pub struct FrameInfo {
     pub ground_source: HeightSource,
     /// Linear RGB background: sky blue near the ground, black in space.
     pub sky_linear: [f64; 3],
-    /// The pixels the sky pass shades, from outside the atmosphere: the bounding rectangle of
-    /// its shell (`geo::projection::sphere_pixel_rect`); every pixel beyond is black, as the
-    /// pass would shade it. None: the whole frame (eye inside the shell, sky off, or a shell
-    /// the eye's plane cuts).
-    pub sky_rect: Option<PixelRect>,
+    /// The directions the sky pass shades from outside the atmosphere (`look::SkyRing`):
+    /// every pixel beyond them is black, as the pass would shade it, or terrain. None: the
+    /// whole frame (eye inside the shell or just above it, or the sky off).
+    pub sky_ring: Option<SkyRing>,
     /// Every pixel's footprint on the terrain is at least [`FAR_FOOTPRINT_M`]: the clipmap is
     /// drawn with the pipelines whose `FAR` leaves out the look's per-pixel texture work
     /// (exact there: see [`far_footprint_m`]).
@@ -182,8 +180,7 @@ pub struct TerrainRenderer {
     /// Tests: shade every frame with the proto-textures' and waves' per-pixel reads and the
     /// boundary noise, as before [`FrameInfo::far`].
     pub never_far: bool,
-    /// Tests: shade the sky over the whole frame, as before the shell's rectangle
-    /// ([`FrameInfo::sky_rect`]).
+    /// Tests: shade the sky over the whole frame, as before the ring ([`FrameInfo::sky_ring`]).
     pub sky_whole_frame: bool,
     /// Tests: draw every range with the water's shading, as before the water cull (which
     /// still runs; only the draws ignore it).
@@ -284,9 +281,15 @@ pub fn far_footprint_m(view: &ViewPlan, highest_m: f64) -> f64 {
     nearest * pixel / (1.0 + t_x * t_x + t_y * t_y)
 }
 
-/// Pixels added around the atmosphere's silhouette ([`FrameInfo::sky_rect`]): the shader's f32
-/// test against the shell and the rectangle's f64 bound may disagree at the edge's pixel.
-const SKY_RECT_MARGIN_PX: f64 = 2.0;
+/// Pixels added on each side of the sky ring ([`FrameInfo::sky_ring`]): the shader's f32 test
+/// against the shell and the ring's f64 cones may disagree at their edges' pixels.
+const SKY_RING_MARGIN_PX: f64 = 2.0;
+/// Metres the sky ring's inner sphere lies below the terrain's lowest point: the mesh's chords
+/// and the error budget keep the drawn surface within it.
+const SKY_RING_INNER_MARGIN_M: f64 = 1000.0;
+/// Distance of the sky ring's vertices from the eye: beyond all terrain (a planet's far side
+/// from the Moon is 4·10⁸ m away), so their depth lies behind every terrain pixel.
+const SKY_RING_DISTANCE_M: f64 = 1e10;
 
 /// Fill dispatches a level may need in one frame. A level rewrites at most 2 rectangles of
 /// at most S × S texels, each cut along the anchor lattice of S/2 blocks
@@ -1277,13 +1280,36 @@ impl TerrainRenderer {
         }
         queue.write_buffer(&self.bump_buffer, 0, bytemuck::bytes_of(&bump));
         self.look_resources.upload(queue, self.look.mips);
-        let look = LookUniforms::from_plan(
+        let mut look = LookUniforms::from_plan(
             &view,
             &self.atmosphere,
             self.look,
             self.terrain.water_level_m(),
             self.look_time_s,
         );
+        // From outside the shell, only the directions between the cone of rays that meet a
+        // sphere under all terrain and the shell's cone need the sky's integral (a CPU
+        // rasteriser pays for every pixel of a full-screen pass, even where each returns at
+        // once). The terrain's lowest point is lowered by a kilometre for the mesh's chords.
+        let sky_ring = if self.look.sky && !self.sky_whole_frame {
+            let pixel_rad = 2.0 * (0.5 * view.fov_y_rad).tan() / f64::from(view.height_px.max(1));
+            SkyRing::new(
+                view.radius_m + view.camera.altitude_m,
+                view.radius_m + self.terrain.height_range_m().0 - SKY_RING_INNER_MARGIN_M,
+                self.atmosphere.top_radius_m(),
+                SKY_RING_MARGIN_PX * pixel_rad,
+            )
+        } else {
+            None
+        };
+        if let Some(ring) = sky_ring {
+            look.sky_ring = [
+                ring.tan_inner as f32,
+                ring.tan_outer as f32,
+                SKY_RING_DISTANCE_M as f32,
+                0.0,
+            ];
+        }
         queue.write_buffer(&self.look_resources.uniforms, 0, bytemuck::bytes_of(&look));
         // Benchmark: the terrain's time runs from here (the sky table, the water cull and the
         // vertex pre-pass are the terrain pass's work too) to the terrain pass's end; the
@@ -1308,9 +1334,7 @@ impl TerrainRenderer {
         let inside = look.eye_radius_m < look.shell[1];
         self.look_resources
             .prepare_sky(encoder, self.look.sky && inside && !self.sky_per_pixel);
-        // From outside the shell, only the pixels its silhouette may cover need the sky's
-        // integral: the rest are black (a CPU rasteriser pays for every pixel of a full-screen
-        // pass, even where each returns at once).
+        // Seen from afar, the look's texture work is constant (FrameInfo::far).
         let far = (self.look.textures || self.terrain.water_level_m().is_some())
             && !self.never_far
             && !self.overlays.wireframe
@@ -1321,18 +1345,6 @@ impl TerrainRenderer {
                     .build_far(&self.pipeline_parts.device.clone(), self.look),
             );
         }
-        let sky_rect = if self.look.sky && !inside && !self.sky_whole_frame {
-            sphere_pixel_rect(
-                view.fov_y_rad,
-                view.width_px,
-                view.height_px,
-                view.camera_from_view * -view.eye_view_m(),
-                self.atmosphere.top_radius_m(),
-                SKY_RECT_MARGIN_PX,
-            )
-        } else {
-            None
-        };
         if let Some(cull) = &mut self.water_cull {
             let entries: Vec<u32> = (clipmap.draw.levels.iter().zip(&clipmap.draw.variants))
                 .map(|(&l, &v)| super::water_cull::draw_entry(l, v != Variant::Plain))
@@ -1384,7 +1396,7 @@ impl TerrainRenderer {
             height_above_terrain_m: view.height_above_terrain_m,
             ground_source: view.ground_source,
             sky_linear: view.sky_linear,
-            sky_rect,
+            sky_ring,
             far,
             stream,
             planar,
@@ -1535,7 +1547,7 @@ impl TerrainRenderer {
                 }
             }
             if self.look.sky && !self.use_passthrough {
-                self.look_resources.draw_sky(pass, info.sky_rect);
+                self.look_resources.draw_sky(pass, info.sky_ring);
             }
             return;
         }
@@ -1611,7 +1623,7 @@ impl TerrainRenderer {
             }
         }
         if self.look.sky && !self.use_passthrough {
-            self.look_resources.draw_sky(pass, info.sky_rect);
+            self.look_resources.draw_sky(pass, info.sky_ring);
         }
     }
 }

@@ -795,7 +795,7 @@ mod tests {
             height_above_terrain_m: 10_000.0,
             ground_source: HeightSource::Tiles,
             sky_linear: [0.0; 3],
-            sky_rect: None,
+            sky_ring: None,
             far: false,
             stream: Some(Default::default()),
             planar: None,
