@@ -50,7 +50,8 @@ fn vs_sky_ring(@builtin(vertex_index) index: u32) -> SkyOut {
     let k = (index / 6u + select(0u, 1u, next)) % SKY_RING_SEGMENTS;
     let azimuth = f32(k) * (6.28318530718 / f32(SKY_RING_SEGMENTS));
     let t = select(look.sky_ring.x, look.sky_ring.y, outer);
-    let rel = vec3<f32>(t * cos(azimuth), t * sin(azimuth), -1.0) * look.sky_ring.z;
+    let sc = sin_cos_precise(azimuth);
+    let rel = vec3<f32>(t * sc.y, t * sc.x, -1.0) * look.sky_ring.z;
     var out: SkyOut;
     out.clip = look.clip_from_view * vec4<f32>(rel, 1.0);
     return out;
