@@ -732,6 +732,48 @@ fn wave_slope(uvw: vec3<f32>, dx: vec3<f32>, dy: vec3<f32>, pl: Planes) -> vec3<
     return pl.wa * from_plane(2.0 * a - 1.0, pl.a) + pl.wb * from_plane(2.0 * b - 1.0, pl.b);
 }
 
+// The largest of five weights (the first of equals) and the largest of the rest, with their
+// indices. Written out with selects on constant indices: a search that indexes the array by a
+// computed index makes a CPU rasteriser spill it and gather per lane.
+struct TwoLargest {
+    first: u32,
+    second: u32,
+    w1: f32,
+    w2: f32,
+}
+
+fn two_largest(w: array<f32, 5>) -> TwoLargest {
+    var t = TwoLargest(0u, 0u, w[0], 0.0);
+    t = larger_first(t, 1u, w[1]);
+    t = larger_first(t, 2u, w[2]);
+    t = larger_first(t, 3u, w[3]);
+    t = larger_first(t, 4u, w[4]);
+    t.second = select(0u, 1u, t.first == 0u);
+    t.w2 = select(w[0], w[1], t.first == 0u);
+    t = larger_second(t, 0u, w[0]);
+    t = larger_second(t, 1u, w[1]);
+    t = larger_second(t, 2u, w[2]);
+    t = larger_second(t, 3u, w[3]);
+    t = larger_second(t, 4u, w[4]);
+    return t;
+}
+
+fn larger_first(t: TwoLargest, k: u32, wk: f32) -> TwoLargest {
+    var out = t;
+    let more = wk > t.w1;
+    out.first = select(t.first, k, more);
+    out.w1 = select(t.w1, wk, more);
+    return out;
+}
+
+fn larger_second(t: TwoLargest, k: u32, wk: f32) -> TwoLargest {
+    var out = t;
+    let more = k != t.first && wk > t.w2;
+    out.second = select(t.second, k, more);
+    out.w2 = select(t.w2, wk, more);
+    return out;
+}
+
 // World → view: v_view = Wᵀ·v_world (the rows of W are look.world*).
 fn view_from_world(v: vec3<f32>) -> vec3<f32> {
     return v.x * look.world0.xyz + v.y * look.world1.xyz + v.z * look.world2.xyz;
@@ -861,27 +903,17 @@ fn shade(in_: VertexOut, rel_d: vec3<f32>) -> vec4<f32> {
         // then the two largest: a third type rarely shows (lavapipe also needs the layer to
         // be a computed value, not a constant per call).
         let keep = (1.0 - wts.w) * (1.0 - wts.z);
-        var weight = array<f32, 5>(
+        let top = two_largest(array<f32, 5>(
             keep * (1.0 - wts.y) * (1.0 - wts.x),
             keep * (1.0 - wts.y) * wts.x,
             keep * wts.y,
             (1.0 - wts.w) * wts.z,
             wts.w,
-        );
-        var first = 0u;
-        for (var k = 1u; k < 5u; k++) {
-            if weight[k] > weight[first] {
-                first = k;
-            }
-        }
-        var second = select(0u, 1u, first == 0u);
-        for (var k = 0u; k < 5u; k++) {
-            if k != first && weight[k] > weight[second] {
-                second = k;
-            }
-        }
-        let w1 = weight[first];
-        let w2 = weight[second];
+        ));
+        let first = top.first;
+        let second = top.second;
+        let w1 = top.w1;
+        let w2 = top.w2;
         let a1 = sample_albedo(first, uvw, uvw_dx, uvw_dy, pw);
         let a2 = sample_albedo(second, uvw, uvw_dx, uvw_dy, pw);
         let albedo_c = mix(a1, a2, w2 / max(w1 + w2, 1e-6));
