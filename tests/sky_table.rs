@@ -9,6 +9,7 @@
 
 mod common;
 
+use globe::geo::camera::Camera;
 use globe::render::TerrainRenderer;
 use globe::scenes::{CameraSpec, Scene};
 
@@ -22,12 +23,31 @@ fn renderer(ctx: &globe::render::GpuContext, per_pixel: bool) -> TerrainRenderer
     r
 }
 
+/// The camera of a named scene (`spec` None) or of a `--camera` text, over `r`'s terrain.
+fn camera_of(r: &TerrainRenderer, name: &str, spec: Option<&str>) -> Camera {
+    match spec {
+        Some(text) => CameraSpec::parse(text, globe::geo::EARTH_RADIUS_M)
+            .unwrap()
+            .camera(|lat, lon| r.terrain_height_m(lat, lon)),
+        None => Scene::by_name(name)
+            .unwrap()
+            .camera(|lat, lon| r.terrain_height_m(lat, lon)),
+    }
+}
+
+/// Per pixel, the largest difference of the colour channels of two frames (0–255).
+fn channel_diffs(a: &[u8], b: &[u8]) -> Vec<u8> {
+    a.chunks(4)
+        .zip(b.chunks(4))
+        .map(|(p, q)| (0..3).map(|c| p[c].abs_diff(q[c])).max().unwrap())
+        .collect()
+}
+
 #[test]
 fn the_table_sky_matches_the_per_pixel_sky() {
     let Some((ctx, _guard)) = common::gpu() else {
         return;
     };
-    let radius = globe::geo::EARTH_RADIUS_M;
     // Two named scenes and a view into the sun (35° up in the south-east) from 2 km.
     let views = [
         ("aircraft", None),
@@ -37,14 +57,7 @@ fn the_table_sky_matches_the_per_pixel_sky() {
     ];
     for (name, spec) in views {
         let mut table = renderer(ctx, false);
-        let camera = match spec {
-            Some(text) => CameraSpec::parse(text, radius)
-                .unwrap()
-                .camera(|lat, lon| table.terrain_height_m(lat, lon)),
-            None => Scene::by_name(name)
-                .unwrap()
-                .camera(|lat, lon| table.terrain_height_m(lat, lon)),
-        };
+        let camera = camera_of(&table, name, spec);
         let a = common::render(ctx, &mut table, &camera, WIDTH_PX, HEIGHT_PX);
         let from_table = table.sky_from_table();
         let mut per_pixel = renderer(ctx, true);
@@ -52,12 +65,7 @@ fn the_table_sky_matches_the_per_pixel_sky() {
         assert!(!per_pixel.sky_from_table());
         // Inside the atmosphere the table serves; from space every pixel integrates.
         assert_eq!(from_table, name != "space", "{name}: sky from the table");
-        let diffs: Vec<u8> = a
-            .rgba
-            .chunks(4)
-            .zip(b.rgba.chunks(4))
-            .map(|(p, q)| (0..3).map(|c| p[c].abs_diff(q[c])).max().unwrap())
-            .collect();
+        let diffs = channel_diffs(&a.rgba, &b.rgba);
         let max = diffs.iter().copied().max().unwrap();
         let mean = diffs.iter().map(|&d| d as f64).sum::<f64>() / diffs.len() as f64;
         let differing = diffs.iter().filter(|&&d| d > 0).count();
@@ -77,7 +85,6 @@ fn from_space_the_sky_shades_only_the_shells_ring() {
     let Some((ctx, _guard)) = common::gpu() else {
         return;
     };
-    let radius = globe::geo::EARTH_RADIUS_M;
     let views = [
         ("space", None, true),
         (
@@ -95,14 +102,7 @@ fn from_space_the_sky_shades_only_the_shells_ring() {
     ];
     for (name, spec, ring) in views {
         let mut with_ring = renderer(ctx, false);
-        let camera = match spec {
-            Some(text) => CameraSpec::parse(text, radius)
-                .unwrap()
-                .camera(|lat, lon| with_ring.terrain_height_m(lat, lon)),
-            None => Scene::by_name(name)
-                .unwrap()
-                .camera(|lat, lon| with_ring.terrain_height_m(lat, lon)),
-        };
+        let camera = camera_of(&with_ring, name, spec);
         let a = common::render(ctx, &mut with_ring, &camera, WIDTH_PX, HEIGHT_PX);
         assert_eq!(
             a.info.sky_ring.is_some(),
@@ -161,7 +161,6 @@ fn from_afar_the_look_leaves_out_its_constant_texture_work() {
     let Some((ctx, _guard)) = common::gpu() else {
         return;
     };
-    let radius = globe::geo::EARTH_RADIUS_M;
     let views = [
         ("space", None),
         ("over the Alps", Some("46.5,9.5,1000000,0,-45")),
@@ -169,26 +168,14 @@ fn from_afar_the_look_leaves_out_its_constant_texture_work() {
     ];
     for (name, spec) in views {
         let mut far = common::full_look_renderer(ctx, true);
-        let camera = match spec {
-            Some(text) => CameraSpec::parse(text, radius)
-                .unwrap()
-                .camera(|lat, lon| far.terrain_height_m(lat, lon)),
-            None => Scene::by_name(name)
-                .unwrap()
-                .camera(|lat, lon| far.terrain_height_m(lat, lon)),
-        };
+        let camera = camera_of(&far, name, spec);
         let a = common::render(ctx, &mut far, &camera, WIDTH_PX, HEIGHT_PX);
         assert!(a.info.far, "{name}: drawn as seen from afar");
         let mut near = common::full_look_renderer(ctx, true);
         near.never_far = true;
         let b = common::render(ctx, &mut near, &camera, WIDTH_PX, HEIGHT_PX);
         assert!(!b.info.far);
-        let diffs: Vec<u8> = a
-            .rgba
-            .chunks(4)
-            .zip(b.rgba.chunks(4))
-            .map(|(p, q)| (0..3).map(|c| p[c].abs_diff(q[c])).max().unwrap())
-            .collect();
+        let diffs = channel_diffs(&a.rgba, &b.rgba);
         let max = diffs.iter().copied().max().unwrap();
         let differing = diffs.iter().filter(|&&d| d > 0).count();
         println!("{name}: {differing} pixels differ, by at most {max}/255");
