@@ -910,13 +910,9 @@ fn shade(in_: VertexOut, rel_d: vec3<f32>) -> vec4<f32> {
             (1.0 - wts.w) * wts.z,
             wts.w,
         ));
-        let first = top.first;
-        let second = top.second;
-        let w1 = top.w1;
-        let w2 = top.w2;
-        let a1 = sample_albedo(first, uvw, uvw_dx, uvw_dy, pw);
-        let a2 = sample_albedo(second, uvw, uvw_dx, uvw_dy, pw);
-        let albedo_c = mix(a1, a2, w2 / max(w1 + w2, 1e-6));
+        let a1 = sample_albedo(top.first, uvw, uvw_dx, uvw_dy, pw);
+        let a2 = sample_albedo(top.second, uvw, uvw_dx, uvw_dy, pw);
+        let albedo_c = mix(a1, a2, top.w2 / max(top.w1 + top.w2, 1e-6));
         colour = albedo_c * (ambient + direct * lambert);
     } else {
         colour = hypsometric(h) * (ambient + direct * lambert);

@@ -1467,7 +1467,7 @@ impl TerrainRenderer {
         timestamps: Option<wgpu::RenderPassTimestampWrites<'_>>,
     ) {
         // With the sky on, its pass shades every pixel the terrain leaves, black beyond the
-        // shell: the clear colour shows only outside `sky_rect`, where the pass would be black.
+        // shell: the clear colour shows only outside `sky_ring`, where the pass would be black.
         let [r, g, b] = if self.look.sky && !self.use_passthrough {
             [0.0; 3]
         } else {
