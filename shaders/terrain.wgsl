@@ -150,6 +150,9 @@ override SKY: bool = true;
 // their coarsest mip (one texel, the tile's mean) as the trilinear filter would there, and the
 // boundary octaves are 0 as their band limit makes them; none of their per-pixel work is done.
 override FAR: bool = false;
+// The bump octaves (bump_gradient, and σ at the vertices for them): off in the pipelines of a
+// frame where no pixel can show one (render::terrain::bump_can_show).
+override BUMP: bool = true;
 // A planar LOD method draws near the viewer: the clipmap's fragments in its square go
 // (planar.wgsl). Geomorphing of the geomipmapping patches.
 override CUT: bool = false;
@@ -442,7 +445,7 @@ fn placed_vertex(p: vec3<f32>, one_minus_cos: f32, h_eye: f32, d: vec2<f32>, ble
     out.rel = rel;
     out.bary = vec3<f32>(1.0);
     out.bump_sigma = 0.0;
-    if DETAIL && bump.lambda_px.z > 0.0 {
+    if DETAIL && BUMP && bump.lambda_px.z > 0.0 {
         out.bump_sigma = bump_sigma(normalize(p));
     }
     out.inscatter = vec3<f32>(0.0);
@@ -830,7 +833,7 @@ fn shade(in_: VertexOut, rel_d: vec3<f32>) -> vec4<f32> {
     let nw = nh.xyz;
     var n = normalize(view_from_world(nw));
     let n_geometry = n;
-    if DETAIL && bump.lambda_px.z > 0.0 {
+    if DETAIL && BUMP && bump.lambda_px.z > 0.0 {
         // The footprint along the view is stretched by 1/cos of the incidence (grazing views
         // would alias the bump otherwise), up to 10×.
         let dist = length(in.rel);

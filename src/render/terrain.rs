@@ -57,10 +57,11 @@ pub struct FrameInfo {
     /// every pixel beyond them is black, as the pass would shade it, or terrain. None: the
     /// whole frame (eye inside the shell or just above it, or the sky off).
     pub sky_ring: Option<SkyRing>,
-    /// Every pixel's footprint on the terrain is at least [`FAR_FOOTPRINT_M`]: the clipmap is
-    /// drawn with the pipelines whose `FAR` leaves out the look's per-pixel texture work
-    /// (exact there: see [`far_footprint_m`]).
-    pub far: bool,
+    /// What the clipmap's shading compiles in. `far`: every pixel's footprint on the terrain
+    /// is at least [`FAR_FOOTPRINT_M`], so the pipelines' `FAR` leaves out the look's per-pixel
+    /// texture work (exact there: see [`far_footprint_m`]). `bump` off: no pixel can show a
+    /// bump octave ([`bump_can_show`]).
+    pub shading: Shading,
     /// The streaming pipeline's state after this frame (DEM terrain only).
     pub stream: Option<FeedFrame>,
     /// What a planar LOD method draws near the viewer (None: the clipmap alone).
@@ -177,9 +178,9 @@ pub struct TerrainRenderer {
     pub use_passthrough: bool,
     /// Tests: integrate the sky per pixel even where the sky-view table would serve.
     pub sky_per_pixel: bool,
-    /// Tests: shade every frame with the proto-textures' and waves' per-pixel reads and the
-    /// boundary noise, as before [`FrameInfo::far`].
-    pub never_far: bool,
+    /// Tests: shade every frame with everything compiled in ([`Shading::ALL`]), as before
+    /// [`FrameInfo::shading`].
+    pub all_shading: bool,
     /// Tests: shade the sky over the whole frame, as before the ring ([`FrameInfo::sky_ring`]).
     pub sky_whole_frame: bool,
     /// Tests: draw every range with the water's shading, as before the water cull (which
@@ -218,8 +219,27 @@ pub struct TerrainRenderer {
     grid_pipelines: Option<GridPipelines>,
     /// The wireframe overlay's (built when it is first switched on).
     wire_pipelines: Option<WirePipelines>,
-    /// The clipmap's for frames seen from afar (`FAR`: built on the first such frame).
-    far_pipelines: Option<ClipmapPipelines>,
+    /// The clipmap's for frames that leave some shading out ([`Shading`]: each built on the
+    /// first frame that needs it).
+    shading_pipelines: Vec<(Shading, ClipmapPipelines)>,
+}
+
+/// What of the terrain's shading a frame's clipmap pipelines compile in, where the frame's
+/// bounds prove the rest invisible (a CPU rasteriser runs the code of a branch no pixel takes).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Shading {
+    /// Not `FAR`: the look's per-pixel texture work ([`FrameInfo::far`]).
+    pub far: bool,
+    /// `BUMP`: the bump octaves ([`bump_can_show`]).
+    pub bump: bool,
+}
+
+impl Shading {
+    /// Everything compiled in: the pipelines every frame can use.
+    pub const ALL: Shading = Shading {
+        far: false,
+        bump: true,
+    };
 }
 
 /// The clipmap's pipelines, one per `clipmap::selection::Variant` (plain, blend band,
@@ -277,8 +297,42 @@ pub fn far_footprint_m(view: &ViewPlan, highest_m: f64) -> f64 {
     let t_y = (0.5 * view.fov_y_rad).tan();
     let t_x = t_y * view.aspect;
     let pixel = 2.0 * t_y / f64::from(view.height_px.max(1));
-    let nearest = (view.camera.altitude_m - highest_m).max(0.0);
-    nearest * pixel / (1.0 + t_x * t_x + t_y * t_y)
+    nearest_terrain_m(view, highest_m) * pixel / (1.0 + t_x * t_x + t_y * t_y)
+}
+
+/// A lower bound on the distance from the eye to any terrain: its height above the highest.
+fn nearest_terrain_m(view: &ViewPlan, highest_m: f64) -> f64 {
+    (view.camera.altitude_m - highest_m).max(0.0)
+}
+
+/// Whether any pixel can show a bump octave (`bump_gradient`): those are the octaves from the
+/// drawn level's `detail_end` (its blend band's coarser level's, if smaller) up to λ_px(d),
+/// which falls with the distance d. At the nearest terrain's distance λ_px is at its largest;
+/// when that is at most every drawn level's first bump octave, or below 0 (every pixel's then
+/// clamps to 0), no pixel shows one (10⁻³ to spare for the shader's f32).
+pub fn bump_can_show(
+    bump: &BumpUniforms,
+    levels: &[LevelUniforms],
+    drawn: &[u32],
+    view: &ViewPlan,
+    highest_m: f64,
+) -> bool {
+    let [x, y, count, _] = bump.lambda_px.map(f64::from);
+    if count <= 0.0 {
+        return false;
+    }
+    let nearest = nearest_terrain_m(view, highest_m).max(1e-6);
+    let lambda = x - nearest.ln() * y;
+    if lambda < -1e-3 {
+        // Every pixel's λ_px clamps to exactly 0, which no octave lies below.
+        return false;
+    }
+    let lambda = lambda.min(count);
+    drawn.iter().any(|&l| {
+        let end = |l: u32| levels[l as usize].detail_end;
+        let first = end(l).min(end(l.saturating_sub(1)));
+        lambda > f64::from(first) - 1e-3
+    })
 }
 
 /// Pixels added on each side of the sky ring ([`FrameInfo::sky_ring`]): the shader's f32 test
@@ -667,7 +721,7 @@ impl TerrainRenderer {
             last_camera: None,
             use_passthrough: false,
             sky_whole_frame: false,
-            never_far: false,
+            all_shading: false,
             ignore_water_cull: false,
             sky_per_pixel: false,
             naive_bump: false,
@@ -689,7 +743,7 @@ impl TerrainRenderer {
             planar_pipelines: None,
             grid_pipelines: None,
             wire_pipelines: None,
-            far_pipelines: None,
+            shading_pipelines: Vec::new(),
         })
     }
 
@@ -1335,15 +1389,24 @@ impl TerrainRenderer {
         self.look_resources
             .prepare_sky(encoder, self.look.sky && inside && !self.sky_per_pixel);
         // Seen from afar, the look's texture work is constant (FrameInfo::far).
-        let far = (self.look.textures || self.terrain.water_level_m().is_some())
-            && !self.never_far
+        let highest_m = self.terrain.height_range_m().1;
+        let shading = Shading {
+            far: (self.look.textures || self.terrain.water_level_m().is_some())
+                && !self.all_shading
+                && far_footprint_m(&view, highest_m) >= FAR_FOOTPRINT_M,
+            // Seen from high enough, every octave of two pixels is in the levels' geometry.
+            bump: self.all_shading
+                || bump_can_show(&bump, &levels, &clipmap.draw.levels, &view, highest_m),
+        };
+        if shading != Shading::ALL
             && !self.overlays.wireframe
-            && far_footprint_m(&view, self.terrain.height_range_m().1) >= FAR_FOOTPRINT_M;
-        if far && self.far_pipelines.is_none() {
-            self.far_pipelines = Some(
-                self.pipeline_parts
-                    .build_far(&self.pipeline_parts.device.clone(), self.look),
-            );
+            && !self.shading_pipelines.iter().any(|(s, _)| *s == shading)
+        {
+            let device = self.pipeline_parts.device.clone();
+            let pipelines = self
+                .pipeline_parts
+                .build_shading(&device, self.look, shading);
+            self.shading_pipelines.push((shading, pipelines));
         }
         if let Some(cull) = &mut self.water_cull {
             let entries: Vec<u32> = (clipmap.draw.levels.iter().zip(&clipmap.draw.variants))
@@ -1397,7 +1460,7 @@ impl TerrainRenderer {
             ground_source: view.ground_source,
             sky_linear: view.sky_linear,
             sky_ring,
-            far,
+            shading,
             stream,
             planar,
         }
@@ -1440,7 +1503,7 @@ impl TerrainRenderer {
             ));
         }
         self.grid_pipelines = None;
-        self.far_pipelines = None;
+        self.shading_pipelines.clear();
         self.build_grid_pipelines(device);
     }
 
@@ -1556,10 +1619,13 @@ impl TerrainRenderer {
             (Some(draw), Some(pipelines)) if !self.use_passthrough => Some((draw, pipelines)),
             _ => None,
         };
-        let uncut = match (wire, &self.far_pipelines) {
+        let shaded = (self.shading_pipelines.iter())
+            .find(|(s, _)| *s == info.shading)
+            .map(|(_, p)| p);
+        let uncut = match (wire, shaded) {
             (Some(w), _) => &w.clipmap,
-            (None, Some(far)) if info.far => far,
-            (None, _) => &self.pipelines,
+            (None, Some(p)) => p,
+            (None, None) => &self.pipelines,
         };
         let cull = self
             .water_cull
@@ -1779,7 +1845,7 @@ impl PipelineParts {
         look: LookSettings,
         source: ClipmapVertices,
         cut: bool,
-        far: bool,
+        shading: Shading,
     ) -> ClipmapPipelines {
         let (vs, input) = match source {
             ClipmapVertices::Placed if look.sky => ("vs_placed_haze", VertexInput::Placed),
@@ -1791,9 +1857,10 @@ impl PipelineParts {
         let build = |wet: bool| {
             [(false, false), (false, true), (true, true)].map(|(morph, blend)| {
                 let mut c = self.constants(look, morph, blend, cut, wet, wire);
-                c.push(("FAR", if far { 1.0 } else { 0.0 }));
+                c.push(("FAR", if shading.far { 1.0 } else { 0.0 }));
+                c.push(("BUMP", if shading.bump { 1.0 } else { 0.0 }));
                 let label = format!(
-                    "terrain {vs} (morph {morph}, blend {blend}, cut {cut}, wet {wet}, far {far})"
+                    "terrain {vs} (morph {morph}, blend {blend}, cut {cut}, wet {wet}, {shading:?})"
                 );
                 self.pipeline(
                     device,
@@ -1906,14 +1973,25 @@ impl PipelineParts {
         geomorph: bool,
     ) -> PlanarPipelines {
         PlanarPipelines {
-            clipmap_cut: self.clipmap_variants(device, look, self.clipmap_source(), true, false),
+            clipmap_cut: self.clipmap_variants(
+                device,
+                look,
+                self.clipmap_source(),
+                true,
+                Shading::ALL,
+            ),
             geomip: self.geomip_pipeline(device, look, geomorph, "vs_geomip"),
         }
     }
 
-    /// The clipmap's pipelines for a frame seen from afar ([`FrameInfo::far`]).
-    fn build_far(&self, device: &wgpu::Device, look: LookSettings) -> ClipmapPipelines {
-        self.clipmap_variants(device, look, self.clipmap_source(), false, true)
+    /// The clipmap's pipelines for a frame that leaves some shading out ([`Shading`]).
+    fn build_shading(
+        &self,
+        device: &wgpu::Device,
+        look: LookSettings,
+        shading: Shading,
+    ) -> ClipmapPipelines {
+        self.clipmap_variants(device, look, self.clipmap_source(), false, shading)
     }
 
     /// The wireframe overlay's pipelines: every method's, drawn without an index buffer.
@@ -1924,8 +2002,20 @@ impl PipelineParts {
         geomorph: bool,
     ) -> WirePipelines {
         WirePipelines {
-            clipmap: self.clipmap_variants(device, look, ClipmapVertices::Wire, false, false),
-            clipmap_cut: self.clipmap_variants(device, look, ClipmapVertices::Wire, true, false),
+            clipmap: self.clipmap_variants(
+                device,
+                look,
+                ClipmapVertices::Wire,
+                false,
+                Shading::ALL,
+            ),
+            clipmap_cut: self.clipmap_variants(
+                device,
+                look,
+                ClipmapVertices::Wire,
+                true,
+                Shading::ALL,
+            ),
             geomip: self.geomip_pipeline(device, look, geomorph, "vs_geomip_wire"),
             grid: None,
         }
@@ -1944,7 +2034,8 @@ impl PipelineParts {
         wgpu::RenderPipeline,
         Option<[wgpu::ComputePipeline; 3]>,
     ) {
-        let pipelines = self.clipmap_variants(device, look, self.clipmap_source(), false, false);
+        let pipelines =
+            self.clipmap_variants(device, look, self.clipmap_source(), false, Shading::ALL);
         let passthrough = self.pipeline(
             device,
             "pass-through pipeline",
