@@ -796,7 +796,7 @@ mod tests {
             ground_source: HeightSource::Tiles,
             sky_linear: [0.0; 3],
             sky_ring: None,
-            far: false,
+            shading: crate::render::terrain::Shading::ALL,
             stream: Some(Default::default()),
             planar: None,
         };
