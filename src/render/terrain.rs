@@ -1395,7 +1395,9 @@ impl TerrainRenderer {
                 && !self.all_shading
                 && far_footprint_m(&view, highest_m) >= FAR_FOOTPRINT_M,
             // Seen from high enough, every octave of two pixels is in the levels' geometry.
+            // Without detail `BUMP` compiles nothing: keep the default pipelines.
             bump: self.all_shading
+                || !self.pipeline_parts.detail_on
                 || bump_can_show(&bump, &levels, &clipmap.draw.levels, &view, highest_m),
         };
         if shading != Shading::ALL
