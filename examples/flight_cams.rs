@@ -1,5 +1,5 @@
 //! Prints the `flight` path's camera at 8 evenly spaced times (space → the ground at Garda) in
-//! the form `globe render --camera=…` takes, over the embedded Earth (README "The look": the
+//! the form `globe render --camera=…` takes, over the embedded Earth (docs/look.md#the-look: the
 //! flight strip).
 fn main() {
     let t = globe::terrain::Terrain::embedded_earth().unwrap();

@@ -1,4 +1,4 @@
-//! Tiles PNGs of one size into one image: `strip OUT.png COLUMNS IN.png…` (README "The look":
+//! Tiles PNGs of one size into one image: `strip OUT.png COLUMNS IN.png…` (docs/look.md#the-look:
 //! the flight strip and the before/after sheets).
 fn main() {
     let args: Vec<String> = std::env::args().collect();

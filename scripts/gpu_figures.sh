@@ -1,8 +1,8 @@
 #!/bin/bash
-# The GPU figures in README ("Measured on a GPU"), as one prepared run on a GPU machine that has
+# The GPU figures in docs/measurements.md#measured-on-a-gpu-nvidia-h200, as one prepared run on a GPU machine that has
 # an NVIDIA driver but no Vulkan loader and no Rust toolchain. Here, first:
 #   cargo build --release && mkdir -p .gpu && cp target/release/globe scripts/gpu_figures.sh .gpu/
-#   and the loader packages into .gl/ (README "On a GPU machine").
+#   and the loader packages into .gl/ (docs/measurements.md#on-a-gpu-machine).
 # There, from the copy's root: OUT=results LIMIT=500 bash .gpu/gpu_figures.sh
 # Each step has a time limit so that the whole run ends within LIMIT seconds; results (one JSON
 # line per bench run, the report's files, a log) go under $OUT.

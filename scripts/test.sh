@@ -16,7 +16,7 @@ have_vulkan() {
 # What the tests need that a fresh machine lacks: a Vulkan driver (Mesa's software one,
 # lavapipe), GDAL's command-line tools (an independent EHdr reader to cross-check against) and
 # Debian's ferret-datasets (ETOPO5, the real Earth the embedded model comes from), and nginx
-# (tests/remote.rs serves a pyramid with range requests; run as this user from a temp dir).
+# (tests/formats/remote.rs serves a pyramid with range requests; run as this user from a temp dir).
 packages=()
 if ! have_vulkan; then packages+=(mesa-vulkan-drivers libvulkan1); fi
 if ! command -v gdallocationinfo >/dev/null; then packages+=(gdal-bin); fi
@@ -41,7 +41,7 @@ if ! python3 -c 'import mpmath' 2>/dev/null; then
 fi
 python3 scripts/map_transform_vectors.py --check tests/data/map_transform_vectors.csv
 
-# The S3-compatible server of tests/remote.rs: moto's server (pure Python wheels, seconds to
+# The S3-compatible server of tests/formats/remote.rs: moto's server (pure Python wheels, seconds to
 # install, nothing to compile; boto3 comes with it and uploads the test object).
 if ! python3 -c 'import moto.server, boto3' 2>/dev/null; then
     echo "scripts/test.sh: installing moto[server] (pip)" >&2
@@ -58,5 +58,5 @@ cargo test --workspace "$@"
 # (shaders/common/trig.wgsl says why): a software adapter's builtins are exact to rounding, so
 # only this shows code that a real GPU would break.
 if [ $# -eq 0 ]; then
-    GLOBE_COARSE_TRIG=1 cargo test --test gpu_detail --test gpu_normals --test gpu_transform
+    GLOBE_COARSE_TRIG=1 cargo test --test gpu -- gpu_detail:: gpu_normals:: gpu_transform::
 fi

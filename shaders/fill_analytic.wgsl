@@ -13,7 +13,7 @@ struct Wave {
     phases: vec4<f32>,    // sin α_a, cos α_a, sin α_b, cos α_b at u_r
 }
 
-// Rust twin: render::gpu_data::FillParams (layout checked by tests/shader_contract.rs).
+// Rust twin: render::gpu_data::FillParams (layout checked by tests/cpu/shader_contract.rs).
 struct FillParams {
     // sin θr, cos θr, sin φr, cos φr of the reference grid point.
     ref_trig: vec4<f32>,

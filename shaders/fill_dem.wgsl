@@ -13,7 +13,7 @@
 // weights are split the same way: (b − a)·f_hi + (b − a)·Δ, the first the same for every
 // texel of the pixel.
 
-// Rust twin: render::gpu_data::DemFillParams (layout checked by tests/shader_contract.rs).
+// Rust twin: render::gpu_data::DemFillParams (layout checked by tests/cpu/shader_contract.rs).
 struct DemFillParams {
     base: vec2<i32>,        // integer (col, row) of the job's first grid point
     frac: vec2<f32>,        // its fractional (col, row)

@@ -16,9 +16,9 @@
 // poles) grows near a pole to keep the chord about one θ step long. On a pole row itself
 // (sin θ = 0) the second slope is taken along the meridian a quarter turn on (column i + S/4:
 // a grid holding a pole always spans the whole circle).
-// Rust twin: render::normals::texel_normal (f64, used by tests/gpu_normals.rs).
+// Rust twin: render::normals::texel_normal (f64, used by tests/gpu/gpu_normals.rs).
 
-// Rust twin: render::gpu_data::NormalParams (layout checked by tests/shader_contract.rs).
+// Rust twin: render::gpu_data::NormalParams (layout checked by tests/cpu/shader_contract.rs).
 struct NormalParams {
     slot0: vec2<u32>,     // texel of the job's first grid point (toroidal)
     extent: vec2<u32>,

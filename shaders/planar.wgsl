@@ -73,7 +73,7 @@ fn planar_point(q: vec2<f32>) -> PlanarPoint {
     let r = frame.radius_m;
     let p = normalize(planar.anchor.xyz + planar.east.xyz * (q.x / r) + planar.north.xyz * (q.y / r));
     let s2 = dot(p.xy, p.xy);
-    // 1 − cos θ̃ = |p̃xy|²/(1 + p̃z): no cancellation (DESIGN.md).
+    // 1 − cos θ̃ = |p̃xy|²/(1 + p̃z): no cancellation (docs/design.md#numerics).
     return unit_point(p, s2 / (1.0 + p.z), atan2(sqrt(s2), p.z));
 }
 

@@ -1,4 +1,4 @@
-// The sky pass (README "The look"): one full-screen triangle drawn after the terrain at the far
+// The sky pass (docs/look.md#the-look): one full-screen triangle drawn after the terrain at the far
 // depth (reversed-Z 0), so it shades only the pixels the terrain left empty; from outside the
 // atmosphere, only the ring of directions that can meet the shell (vs_sky_ring: a CPU
 // rasteriser pays for every pixel a pass covers). Each pixel's ray from the eye is integrated

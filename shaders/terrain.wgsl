@@ -2,7 +2,7 @@
 //
 // Vertex: static ring vertex p̃ (view space) → map transform → height from the level texture
 // (manual bilinear, blended into the next coarser level near the level's outer edge) →
-// camera-relative position with no f32 cancellation (DESIGN.md: 1 − cos θ̃ precomputed in f64).
+// camera-relative position with no f32 cancellation (docs/design.md#numerics: 1 − cos θ̃ precomputed in f64).
 // Fragment: the level's normal texture (world frame, filled once per texel by
 // fill_normals.wgsl) turned into view space, the detail's bump octaves finer than the level
 // holds, sun lighting, hypsometric colours of the height stored beside the normal (the
@@ -12,7 +12,7 @@
 // Prepended at build time: constants generated from Rust (render::shader::shared_constants:
 // MAX_LEVELS, OVERLAY_LEVELS, TRANSFORM_*, …) and common/map_transform.wgsl.
 
-// Rust twin: render::gpu_data::FrameUniforms (layout checked by tests/shader_contract.rs).
+// Rust twin: render::gpu_data::FrameUniforms (layout checked by tests/cpu/shader_contract.rs).
 struct FrameUniforms {
     clip_from_view: mat4x4<f32>,
     transform: TransformUniforms,
@@ -427,7 +427,7 @@ fn ring_vertex(v: RingVertex, index: u32) -> VertexOut {
 
 // A vertex at view direction p and height h_eye above the eye's altitude (h − h_eye), the rest
 // of its placement given: the position relative to the eye (the eye is at (0, 0, R + h_eye);
-// z = (h − h_eye) − (R + h)·(1 − cos θ̃), DESIGN.md) and the haze integrated toward it. Both LOD
+// z = (h − h_eye) − (R + h)·(1 − cos θ̃), docs/design.md#numerics) and the haze integrated toward it. Both LOD
 // methods' vertex stages end here.
 fn placed_vertex(p: vec3<f32>, one_minus_cos: f32, h_eye: f32, d: vec2<f32>, blend: f32, level: u32) -> VertexOut {
     let r = frame.radius_m + (eye_altitude() + h_eye);

@@ -18,7 +18,7 @@
 // of every range.
 // Rust twin of the rule: render::water_cull::dry (tested against these counts).
 
-// Rust twin: render::gpu_data::WaterCullParams (layout checked by tests/shader_contract.rs).
+// Rust twin: render::gpu_data::WaterCullParams (layout checked by tests/cpu/shader_contract.rs).
 struct WaterCullParams {
     // A level is dry when its lowest texel is at least this (water level + margin).
     dry_from_m: f32,

@@ -1,30 +1,32 @@
 //! globe: a planetary globe viewer built on spherical geometry clipmaps.
 //!
-//! Data flows downward; no module imports one listed below it:
+//! Data flows downward: a module uses only modules on its layer or below (`ARCHITECTURE.md`
+//! "Layers", held by `tests/cpu/layers.rs`). Lowest first:
 //!
 //! | module | concern |
 //! | --- | --- |
 //! | [`geo`] | f64 sphere math, camera, the map transform (3 forms) and visibility bounds |
+//! | [`progress`] | progress of long work on stderr: a bar on a terminal, plain lines in logs |
 //! | [`dem`] | elevation rasters (EHdr/BIL, netCDF-3) and the tiled pyramid file |
-//! | [`stream`] | tile streaming: sources (mmap, fault injection), tokio streamer, LRU cache |
 //! | [`clipmap`] | ring mesh, level texture windows, level and sector selection |
 //! | [`planar`] | close-up LOD methods in a local tangent frame: geomipmapping with geomorphing, the error-bounded projected grid, geometry-image warping |
+//! | [`stream`] | tile streaming: sources (mmap, fault injection), tokio streamer, LRU cache |
 //! | [`procedural`] | detail below the data: multifractal value noise over a 3-D integer lattice, domain warping, the data's relief, the geometry rule λ(s) |
-//! | [`terrain`] | the terrain function: base heights (the analytic test planet or the DEM pyramid) plus the procedural detail, and water (max(h, level)) |
 //! | [`look`] | the look: surface types and their proto-textures, the atmosphere (single scattering) |
+//! | [`terrain`] | the terrain function: base heights (the analytic test planet or the DEM pyramid) plus the procedural detail, and water (max(h, level)) |
+//! | [`scenes`] | the named views of docs/design.md#scenes, the flight and the soak's random path |
 //! | [`plan`] | one frame planned in f64 (view, clipmap levels, fills, sectors, waiting), no GPU |
 //! | [`render`] | wgpu plumbing: the plan → f32 GPU data step and the Rust ↔ WGSL contract (`gpu_data`), context, terrain pass, compute fill, offscreen target |
-//! | [`scenes`] | the named views of DESIGN.md |
 //! | [`measure`] | f64 reference ray caster and the per-pixel screen-space error (error-bounded paper, eq. 2–3) |
-//! | [`bench`] | `globe bench`: timed frames of a scene or the flight path, with their error |
-//! | [`report`] | `globe report`: every setting over the scenes → CSV, JSON, Markdown, plot |
-//! | [`progress`] | progress of long work on stderr: a bar on a terminal, plain lines in logs |
+//! | [`instruments`] | `globe bench`, `globe report`, the soak and the plots |
 //! | [`ui`] | the window: winit + egui |
 
-pub mod bench;
+#![warn(clippy::too_many_lines)]
+
 pub mod clipmap;
 pub mod dem;
 pub mod geo;
+pub mod instruments;
 pub mod look;
 pub mod measure;
 pub mod plan;
@@ -32,9 +34,7 @@ pub mod planar;
 pub mod procedural;
 pub mod progress;
 pub mod render;
-pub mod report;
 pub mod scenes;
-pub mod soak;
 pub mod stream;
 pub mod terrain;
 pub mod ui;

@@ -9,7 +9,8 @@ use std::path::PathBuf;
 use anyhow::{Context, bail};
 use clap::Args;
 use globe::dem::embedded::{EmbeddedEarth, grid};
-use globe::dem::raster::{BilinearSampler, open_raster};
+use globe::dem::open_raster;
+use globe::dem::raster::BilinearSampler;
 
 use globe::progress::Progress;
 

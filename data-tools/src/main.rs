@@ -1,5 +1,7 @@
 //! `globe-data`: elevation data tools for globe (see data-tools/README.md).
 
+#![warn(clippy::too_many_lines)]
+
 mod earth;
 mod pyramid_cmd;
 mod synth;

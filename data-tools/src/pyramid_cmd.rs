@@ -4,8 +4,8 @@ use std::path::PathBuf;
 
 use anyhow::{Context, bail};
 use clap::Args;
+use globe::dem::open_raster;
 use globe::dem::pyramid::{DEFAULT_TILE_SIZE, NanPolicy, Pyramid, PyramidBuilder};
-use globe::dem::raster::open_raster;
 
 use globe::progress::Progress;
 

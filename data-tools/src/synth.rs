@@ -11,7 +11,8 @@ use std::path::PathBuf;
 use anyhow::{Context, bail};
 use clap::{Args, ValueEnum};
 use globe::dem::ehdr::{EhdrWriteOptions, write_ehdr};
-use globe::dem::raster::{BilinearSampler, open_raster};
+use globe::dem::open_raster;
+use globe::dem::raster::BilinearSampler;
 use globe::dem::{DemError, GeoGrid};
 
 use globe::progress::Progress;

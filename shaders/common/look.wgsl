@@ -1,10 +1,10 @@
-// The look of the planet (README "The look"): atmosphere (single scattering), proto-textures
+// The look of the planet (docs/look.md#the-look): atmosphere (single scattering), proto-textures
 // and water. Shared by terrain.wgsl (aerial perspective, materials, water) and sky.wgsl.
 // Rust twins: look::atmosphere (scattering, Chapman column), look::proto (material weights).
 // The pass declares `var<uniform> look: LookUniforms` (the functions read it as a global: a
 // software adapter, lavapipe, crashes on this struct passed by value).
 
-// Rust twin: render::gpu_data::LookUniforms (layout checked by tests/shader_contract.rs).
+// Rust twin: render::gpu_data::LookUniforms (layout checked by tests/cpu/shader_contract.rs).
 struct LookUniforms {
     // Clip → view space (rays of the sky pass; the eye is the origin).
     view_from_clip: mat4x4<f32>,

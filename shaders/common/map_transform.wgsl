@@ -1,10 +1,10 @@
-// Spherical-clipmap map transform (spherical-clipmaps.md eq. 2–4, 11, 14, §4.4; DESIGN.md
-// "Numerics"): view-space unit point p̃ of the static ring mesh → map-space offsets from the viewer,
+// Spherical-clipmap map transform (spherical-clipmaps.md eq. 2–4, 11, 14, §4.4;
+// docs/design.md#numerics): view-space unit point p̃ of the static ring mesh → map-space offsets from the viewer,
 // returned as vec2(Δφ, Δθ) = (φ − φv, θ − θv) in radians, matching map space (s, t) = (φ, θ).
 //
 // A function library: no entry points, no bindings; it is concatenated before the pass shaders.
 // Each function has a Rust twin in src/geo/map_transform.rs (named in its doc comment), written
-// line by line in the same order; tests/geo_math.rs measures the twins against f64.
+// line by line in the same order; tests/cpu/geo_math.rs measures the twins against f64.
 //
 // Conventions (src/geo/mod.rs): view +x̃ points south at the viewer, +ỹ east, +z̃ up; for φv = 0 the
 // world point is p = (cos θv·p̃x + sin θv·p̃z, p̃y, −sin θv·p̃x + cos θv·p̃z) (eq. 10's sign).
@@ -50,7 +50,7 @@ fn map_transform_direct(u: TransformUniforms, p_tilde: vec3<f32>, seam_side: f32
     return vec2<f32>(dphi, dtheta);
 }
 
-// DESIGN.md's cancellation-free form: three branches, accurate to O(ulp·θ̃) near the viewer and
+// The cancellation-free form of docs/design.md#numerics: three branches, accurate to O(ulp·θ̃) near the viewer and
 // at the poles. Rust twin: stable_f32.
 fn map_transform_stable(u: TransformUniforms, p_tilde: vec3<f32>, seam_side: f32) -> vec2<f32> {
     let p = map_transform_rotate(u, p_tilde);

@@ -13,7 +13,7 @@
 // the builtins made as coarse as NVIDIA's (`shader::with_coarse_builtin_trig`).
 
 // atan2 with ~1 ulp relative error for small angles (where the clipmap needs it; lavapipe's
-// builtin misses 1 cm at 1 km, tests/gpu_transform.rs). Range reduction to |t| ≤ tan(π/12)
+// builtin misses 1 cm at 1 km, tests/gpu/gpu_transform.rs). Range reduction to |t| ≤ tan(π/12)
 // (atan t = π/6 + atan((√3t − 1)/(√3 + t))), then the odd Taylor series to t¹³ (truncation
 // < 2e-10 relative). Rust twin: atan2_precise_f32.
 fn atan2_precise(y: f32, x: f32) -> f32 {

@@ -206,7 +206,7 @@ pub fn density_within(spacing_px: f64, target_px: f64, cap: DensityCap) -> Densi
 /// geometry (cells of at least κ·s at distance s, `procedural`): at most this many of those
 /// cells between two neighbouring vertices, along and across rings.
 ///
-/// Measured (`tests/detail_render.rs`, 96×54, camera 0.1 m above the detail, default mesh):
+/// Measured (`tests/gpu/detail_render.rs`, 96×54, camera 0.1 m above the detail, default mesh):
 /// density 3 (1.27 cells across rings) gives p99 ρ 0.64 / 0.12 / 0.21 / 0.59 px at the north
 /// pole, the south pole, the antimeridian and Garda; density 4 (2.34 cells) gave 1.30 / 0.22 /
 /// 0.33 / 1.31 px, past the 1 px the default must keep. The screen-space spacing rule alone

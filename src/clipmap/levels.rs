@@ -87,6 +87,13 @@ impl GridRect {
 }
 
 impl LevelGrid {
+    /// Ground spacing used for the band limit of the level: twice its θ spacing, a per-level
+    /// constant (so strips written at different times agree) that bounds the φ spacing away
+    /// from the poles (anisotropy ≤ 2, see the module docs).
+    pub fn band_limit_texel_m(&self, radius_m: f64) -> f64 {
+        2.0 * self.dtheta_rad * radius_m
+    }
+
     /// (φ, θ) in radians of grid point (gx, gy), folded back onto the sphere: rows past a
     /// pole (θ < 0 or θ > π) hold the point across it, as the GPU fills do (the CPU twin the
     /// tests compare level textures with).

@@ -13,7 +13,7 @@
 //! Seam meridians (§4.4): a vertex on φ̃ = 0 or φ̃ = π has p̃y = 0 exactly. Beyond a pole
 //! (p_x < 0) atan2 cannot tell which side of the ±π cut it belongs to, so such vertices are
 //! duplicated, each copy carrying `seam_side` = ±1, the sign of p̃y of the triangles it belongs
-//! to. The paper needed one duplicated line; with our sign convention (DESIGN.md) the north pole
+//! to. The paper needed one duplicated line; with our sign convention (docs/design.md#conventions) the north pole
 //! lies beyond φ̃ = π and the south pole beyond φ̃ = 0, so both are handled.
 
 use std::collections::HashMap;
@@ -29,7 +29,7 @@ use super::settings::{ClipmapSettings, ring_theta_rad};
 pub struct RingVertex {
     /// p̃ of eq. 2, computed in f64 and rounded once.
     pub p_tilde: [f32; 3],
-    /// 1 − cos θ̃ written as 2·sin²(θ̃/2) in f64 (never formed in f32: DESIGN.md).
+    /// 1 − cos θ̃ written as 2·sin²(θ̃/2) in f64 (never formed in f32: docs/design.md#numerics).
     pub one_minus_cos: f32,
     /// θ̃ in radians.
     pub theta_tilde_rad: f32,
@@ -271,28 +271,6 @@ impl RingMesh {
     /// Vertices of one level (the full-density grid, its nadir last).
     pub fn vertices_per_level(&self) -> u32 {
         (self.rings_per_level + 1) * (self.phi_steps + 2) + 1
-    }
-
-    /// Triangles of every sector of the drawn levels of `selection` at `densities`, with the
-    /// finest level's cap: what a frame draws when nothing is culled.
-    pub fn drawn_triangles(
-        &self,
-        densities: &super::density::DensityPlan,
-        selection: &super::selection::LevelSelection,
-    ) -> u64 {
-        let mut total = 0;
-        for level in selection.drawn_levels() {
-            let d = densities.levels[level as usize];
-            total += self.triangles(level, d.body.k, d.outer.k, d.inner.k);
-        }
-        let f = selection.finest as usize;
-        let k = densities.levels[f].body.k as usize;
-        total
-            + self.levels[f][k]
-                .cap
-                .iter()
-                .map(|r| (r.end - r.start) as u64 / 3)
-                .sum::<u64>()
     }
 
     /// Triangles of one whole level at density k whose edge rings are drawn at `outer` and

@@ -2,6 +2,7 @@
 //! per-level map-space texture windows with toroidal updates, and the choice of what to draw.
 
 pub mod density;
+pub mod draw_list;
 pub mod levels;
 pub mod mesh;
 pub mod selection;

@@ -1,13 +1,13 @@
 //! Settings of the spherical clipmap: mesh resolution, texture size, map transform form.
 //!
-//! The defaults are chosen by measurement (see README "Choosing n, m and the texture size").
+//! The defaults are chosen by measurement (see docs/design.md#choosing-n-m-and-the-texture-size).
 
 /// Which form of the map transform (spherical-clipmaps.md eq. 2–4) the vertex shader uses.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum TransformForm {
     /// The paper's eq. 4 evaluated in f32: `acos(p_z) − θv`. Loses metres near the viewer.
     Direct,
-    /// DESIGN.md's cancellation-free three-branch form. The default: ≤ 1 cm within 1 km.
+    /// The cancellation-free three-branch form (docs/design.md#numerics). The default: ≤ 1 cm within 1 km.
     Stable,
     /// The paper's approximation (eq. 11, 14) on the inner levels, blended by ring into the
     /// stable form on the outer ones (Fig. 14: blending avoids gaps).
@@ -68,7 +68,7 @@ pub struct ClipmapSettings {
     /// Map transform used by the vertex shader.
     pub transform: TransformForm,
     /// First level (counting from the coarsest, 0) that uses the approximation when
-    /// `transform` is `Approximate`. The paper used 10; see README for our measurement.
+    /// `transform` is `Approximate`. The paper used 10; see docs/design.md#the-three-map-transform-forms for our measurement.
     pub approx_start_level: u32,
     /// Target on-screen spacing of the mesh's vertices in pixels: each level is drawn at the
     /// coarsest ring density (every 2^k-th φ̃ step and ring, k ≤ 4 at
@@ -96,7 +96,7 @@ impl Default for ClipmapSettings {
 /// Default target vertex spacing in pixels: that of the default error budget.
 pub const DEFAULT_TARGET_SPACING_PX: f32 = 5.0 * DEFAULT_ERROR_BUDGET_PX;
 
-/// The default of the one error knob, `--error-budget` (README "One error knob"): the cheapest
+/// The default of the one error knob, `--error-budget` (docs/design.md#the-error-knob): the cheapest
 /// budget of the sweep (0.5, 1, 2, 4, 8 px) that keeps p99 ρ ≤ 1 px and max ρ ≤ 2 px in every
 /// named scene, on the embedded Earth and on the analytic planet (8 fails `ground`).
 pub const DEFAULT_ERROR_BUDGET_PX: f32 = 4.0;
@@ -173,8 +173,8 @@ impl ClipmapSettings {
     /// The settings of one error knob (issue 14): `budget_px` is the target max ρ at the
     /// frame's resolution. The vertex spacing is 5 × the budget (the mesh is not what limits ρ
     /// in the named scenes: `globe report` shows ρ against the budget); the texture size and,
-    /// below a pixel, the full-density mesh step with it (README "Choosing n, m and the texture
-    /// size": texture 256 → 512 cuts ρ by a third, n = 1024, m = 64 with 1024² halves it).
+    /// below a pixel, the full-density mesh step with it (docs/design.md#choosing-n-m-and-the-texture-size:
+    /// texture 256 → 512 cuts ρ by a third, n = 1024, m = 64 with 1024² halves it).
     pub fn for_error_budget(budget_px: f32) -> Result<Self, BudgetError> {
         let (lo, hi) = ERROR_BUDGET_RANGE_PX;
         if !(lo..=hi).contains(&budget_px) {

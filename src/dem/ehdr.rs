@@ -1,5 +1,5 @@
 //! ESRI EHdr / BIL rasters: GTOPO30's `.DEM` + `.HDR` tiles and any raster described by a `.HDR`
-//! of `KEY value` lines (DESIGN.md "Data", issue 3 items 1 and 2).
+//! of `KEY value` lines (docs/design.md#data, issue 3 items 1 and 2).
 //!
 //! * [`EhdrHeader`] parses and validates the header: keys are case-insensitive, unknown keys are
 //!   ignored, and every value is checked against the data file before a byte of it is read.

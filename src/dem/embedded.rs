@@ -1,6 +1,6 @@
 //! The small real Earth shipped inside the binary: ETOPO5 (NOAA, public domain) decimated to
 //! 10′ (2160 × 1080 pixels, bathymetry included), stored as a 16-bit greyscale PNG of
-//! h + 32768 metres. Made by `globe-data earth` (see README "The embedded Earth").
+//! h + 32768 metres. Made by `globe-data earth` (see docs/data.md#the-embedded-earth).
 
 use crate::dem::{DemError, GeoGrid, RasterSource};
 

@@ -32,8 +32,8 @@
 //!
 //!   What remains is a truncation in place racing an access between a check and the copy.
 //!   A rename cannot cause it: the map holds the old inode, whose length no rename changes.
-//!   Replace such files by renaming; never truncate one that a viewer has open (README, "The
-//!   mmap SIGBUS risk").
+//!   Replace such files by renaming; never truncate one that a viewer has open
+//!   (docs/streaming.md#files-changing-under-the-viewer).
 //! * **Contents changed in place without a size change** are not a memory-safety issue for
 //!   `&[u8]` reads of plain integers; the pyramid catches them with its tile CRCs.
 

@@ -1,5 +1,5 @@
 //! Elevation data: readers for EHdr/BIL rasters (GTOPO30) and netCDF-3 (ETOPO5), and the tiled
-//! pyramid file the viewer memory-maps (DESIGN.md "Data").
+//! pyramid file the viewer memory-maps (docs/design.md#data).
 //!
 //! Every reader exposes a [`raster::RasterSource`]: a geographic grid of pixel centres and rows
 //! of heights in metres, `NaN` where the source has no data. The pyramid builder consumes any
@@ -19,6 +19,7 @@ pub mod hgt;
 mod mapped;
 pub mod mosaic;
 pub mod netcdf;
+pub mod open;
 pub mod pyramid;
 pub mod raster;
 pub mod remote;
@@ -29,6 +30,7 @@ pub use geotiff::GeoTiffRaster;
 pub use hgt::HgtRaster;
 pub use mosaic::RasterMosaic;
 pub use netcdf::{NetcdfFile, NetcdfRaster};
+pub use open::open_raster;
 pub use pyramid::{Pyramid, PyramidBuilder};
 pub use raster::{GeoGrid, RasterSource};
 

@@ -1,5 +1,5 @@
 //! netCDF-3 classic files (CDF-1, and CDF-2 "64-bit offset") and a raster adaptor for
-//! ETOPO-style global grids (DESIGN.md "Data": ETOPO5 from Debian's `ferret-datasets`), in two
+//! ETOPO-style global grids (docs/design.md#data: ETOPO5 from Debian's `ferret-datasets`), in two
 //! concerns:
 //!
 //! * [`format`]: the file format — a reader of our own for the header (dimensions, attributes,

@@ -1,4 +1,4 @@
-//! The tiled elevation pyramid file: the unit of streaming (DESIGN.md "Data"), read tile by
+//! The tiled elevation pyramid file: the unit of streaming (docs/design.md#data), read tile by
 //! tile by `crate::stream`.
 //!
 //! A pyramid holds a geographic (equirectangular, pixel-centre) grid of heights at levels

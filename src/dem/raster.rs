@@ -145,50 +145,6 @@ impl<'a> BilinearSampler<'a> {
     }
 }
 
-/// Opens any raster globe reads: a folder of SRTM `.hgt` tiles or GeoTIFFs (one
-/// [`RasterMosaic`](crate::dem::RasterMosaic)) or of EHdr tiles (one
-/// [`EhdrMosaic`](crate::dem::EhdrMosaic)), a netCDF-3 file (`.nc`, `.cdf`; `variable` picks
-/// the 2-D variable, default the only one), a GeoTIFF/COG (`.tif`, `.tiff`, or any file that
-/// starts as a TIFF does), an SRTM `.hgt` tile, or an EHdr raster (its `.HDR` or data file).
-pub fn open_raster(
-    path: &std::path::Path,
-    variable: Option<&str>,
-) -> Result<Box<dyn RasterSource>, crate::dem::DemError> {
-    if path.is_dir() {
-        let has_tiles = std::fs::read_dir(path)
-            .map(|d| {
-                d.filter_map(Result::ok)
-                    .any(|e| crate::dem::mosaic::is_mosaic_tile(&e.path()))
-            })
-            .unwrap_or(false);
-        if has_tiles {
-            return Ok(Box::new(crate::dem::RasterMosaic::open_dir(path)?));
-        }
-        return Ok(Box::new(crate::dem::EhdrMosaic::open_dir(path)?));
-    }
-    let ext = path
-        .extension()
-        .and_then(|e| e.to_str())
-        .map(str::to_ascii_lowercase);
-    match ext.as_deref() {
-        Some("nc") | Some("cdf") => Ok(Box::new(crate::dem::NetcdfRaster::open(path, variable)?)),
-        Some("tif") | Some("tiff") => Ok(Box::new(crate::dem::GeoTiffRaster::open(path)?)),
-        Some("hgt") => Ok(Box::new(crate::dem::HgtRaster::open(path)?)),
-        _ if starts_as_tiff(path) => Ok(Box::new(crate::dem::GeoTiffRaster::open(path)?)),
-        _ => Ok(Box::new(crate::dem::EhdrRaster::open(path)?)),
-    }
-}
-
-/// Whether a file begins with a TIFF or BigTIFF signature (`II*\0`, `MM\0*`, `II+\0`, `MM\0+`).
-fn starts_as_tiff(path: &std::path::Path) -> bool {
-    use std::io::Read;
-    let mut magic = [0u8; 4];
-    std::fs::File::open(path)
-        .and_then(|mut f| f.read_exact(&mut magic))
-        .is_ok()
-        && matches!(&magic, b"II*\0" | b"MM\0*" | b"II+\0" | b"MM\0+")
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -3,7 +3,7 @@
 //!
 //! The GPU works in view space (viewer at the view-space north pole, `spherical-clipmaps.md`
 //! §3.3), so the camera orientation is given in view space directly and no world transform ever
-//! reaches the GPU (`DESIGN.md`: the GPU only sees quantities relative to the viewer).
+//! reaches the GPU (`docs/design.md#numerics`: the GPU only sees quantities relative to the viewer).
 //!
 //! | frame | axes |
 //! | --- | --- |

@@ -1,5 +1,5 @@
 //! The spherical-clipmap map transform f(θv, φ̃, θ̃) → (Δφ, Δθ) = (φ − φv, θ − θv)
-//! (`spherical-clipmaps.md` eq. 1–4 with `DESIGN.md`'s sign, §4.4 seam, §5.1 eq. 9–14).
+//! (`spherical-clipmaps.md` eq. 1–4 with the sign of `docs/design.md#conventions`, §4.4 seam, §5.1 eq. 9–14).
 //!
 //! A static ring mesh lives in view space (viewer at the view-space north pole); each vertex
 //! carries p̃ (eq. 2) computed once in f64. Per frame the GPU rotates p̃ by θv about ỹ into the
@@ -9,7 +9,7 @@
 //! | --- | --- | --- | --- |
 //! | [`exact_f64`] | atan2(p_y, p_x) | three branches + far-point refinement, f64 | reference (CPU) |
 //! | [`direct_f32`] (eq. 3–4) | atan2(p_y, p_x) | acos(p_z) − θv | far rings only: cancels near the viewer and the poles |
-//! | [`stable_f32`] (`DESIGN.md`) | atan2(p_y, p_x) | three branches, no cancellation | everywhere |
+//! | [`stable_f32`] (`docs/design.md#numerics`) | atan2(p_y, p_x) | three branches, no cancellation | everywhere |
 //! | [`approx_f32`] (eq. 11, 14) | p̃y·stretch | p̃x | inner rings, π/48 < θv < 47π/48 |
 //! | [`blended_f32`] (Fig. 14) | mix(stable, approx, w) | mix(stable, approx, w) | per-ring blend between the two |
 //!
@@ -29,7 +29,7 @@
 //! * sin(θ − θv) = c²·p̃x + cs·p̃z + c·q + s²·p̃x − sc·p̃z = **p̃x + c·q**
 //! * cos(θ − θv) = −cs·p̃x + c²·p̃z + sc·p̃x + s²·p̃z + s·q = **p̃z + s·q**
 //!
-//! so Δθ = atan2(p̃x + c·q, p̃z + s·q) exactly as `DESIGN.md` states, with this crate's sign
+//! so Δθ = atan2(p̃x + c·q, p̃z + s·q) exactly as `docs/design.md#numerics` states, with this crate's sign
 //! (eq. 10's: +x̃ points south). Both atan2 arguments are the true sine and cosine (not merely
 //! proportional: |p̃| = 1), and Δθ ∈ [−π, π], so atan2 returns the right branch. Near the viewer
 //! p̃x and q are O(θ̃) and carry full relative precision, so the error is O(ulp·θ̃) instead of
@@ -66,13 +66,13 @@ pub fn p_tilde(phi_tilde_rad: f64, theta_tilde_rad: f64) -> DVec3 {
 }
 
 /// 1 − cos θ̃ written as 2·sin²(θ̃/2), which keeps full relative precision for small θ̃
-/// (`DESIGN.md`, "Numerics": never form 1 − cos θ̃ in f32; precompute this per vertex in f64).
+/// (`docs/design.md#numerics`: never form 1 − cos θ̃ in f32; precompute this per vertex in f64).
 pub fn one_minus_cos(theta_tilde_rad: f64) -> f64 {
     let half_sin = (0.5 * theta_tilde_rad).sin();
     2.0 * half_sin * half_sin
 }
 
-/// Rotates a view-space point into the world frame for φv = 0 (eq. 10's sign; `DESIGN.md`):
+/// Rotates a view-space point into the world frame for φv = 0 (eq. 10's sign; `docs/design.md#conventions`):
 /// p = (cos θv·p̃x + sin θv·p̃z, p̃y, −sin θv·p̃x + cos θv·p̃z).
 pub fn world_from_view_point(theta_v_rad: f64, p_tilde: DVec3) -> DVec3 {
     let (sin_theta_v, cos_theta_v) = theta_v_rad.sin_cos();
@@ -86,7 +86,7 @@ pub fn world_from_view_point(theta_v_rad: f64, p_tilde: DVec3) -> DVec3 {
 /// Accurate f64 map transform: (Δφ, Δθ) = (φ − φv, θ − θv) for the unit view-space point
 /// `p_tilde`, Δφ ∈ (−π, π], Δθ ∈ [−π, π].
 ///
-/// `DESIGN.md`'s cancellation-free form (derivation in the module docs) evaluated in f64, with one
+/// The cancellation-free form of `docs/design.md#numerics` (derivation in the module docs) evaluated in f64, with one
 /// refinement for far points: its viewer-side branch is used only while |Δθ| ≤ π/4; elsewhere θ is
 /// measured from whichever of 0, π/2 or π is nearest (so the atan2 result is at most π/4) and the
 /// constant minus θv is carried in double-double, leaving a single final rounding. Near the viewer
@@ -147,7 +147,7 @@ fn constant_minus_two(constant_hi: f64, constant_lo: f64, a: f64, b: f64) -> f64
 pub enum Stretch {
     /// The paper's empirical polynomial in θv, [`paper_stretch`].
     Paper,
-    /// 1/sin θv, which the CPU can give exactly each frame (`DESIGN.md`, "Numerics").
+    /// 1/sin θv, which the CPU can give exactly each frame (`docs/design.md#numerics`).
     Exact,
 }
 
@@ -259,7 +259,7 @@ pub fn rotate_f32(u: &TransformUniformsF32, p_tilde: Vec3) -> Vec3 {
 /// Δφ = atan2(p_y, p_x). Returns (Δφ, Δθ).
 ///
 /// acos near p_z = ±1 and the subtraction of θv lose ~0.4 m at the equator and hundreds of metres
-/// near a pole (`DESIGN.md`, "Numerics"); kept as the baseline. p_z is clamped to [−1, 1] since the
+/// near a pole (`docs/design.md#numerics`); kept as the baseline. p_z is clamped to [−1, 1] since the
 /// rounded rotation can exceed 1 by an ulp (acos would return NaN).
 pub fn direct_f32(u: &TransformUniformsF32, p_tilde: Vec3, seam_side: f32) -> (f32, f32) {
     let p = rotate_f32(u, p_tilde);
@@ -268,7 +268,7 @@ pub fn direct_f32(u: &TransformUniformsF32, p_tilde: Vec3, seam_side: f32) -> (f
     (dphi, dtheta)
 }
 
-/// Twin of `map_transform_stable`: `DESIGN.md`'s cancellation-free three branches in f32.
+/// Twin of `map_transform_stable`: the cancellation-free three branches of `docs/design.md#numerics` in f32.
 /// Returns (Δφ, Δθ).
 ///
 /// p_x > 0: Δθ = atan2(p̃x + cos θv·q, p̃z + sin θv·q), q = p̃y²/(ρ + p_x); beyond the north pole

@@ -3,8 +3,8 @@
 //!
 //! Source: `spherical-clipmaps.md` §3.3 (eq. 1–4, the map transform), §4.4 (the seam meridian
 //! beyond a pole), §4.5 (eq. 5–8, level visibility) and §5.1 (eq. 9–14, the trigonometric
-//! approximation), with the sign and the cancellation-free form of `DESIGN.md` ("Conventions",
-//! "Numerics").
+//! approximation), with the sign and the cancellation-free form of `docs/design.md#conventions` and
+//! `docs/design.md#numerics`.
 //!
 //! Everything here is f64 except the explicit f32 twins of the WGSL map transform in
 //! [`map_transform`] (`*_f32`), which exist so that tests can measure what the GPU computes.
@@ -40,5 +40,5 @@ pub use map_transform::{Stretch, TransformUniformsF32};
 pub use projection::{camera_from_clip, clip_from_camera, near_plane_m};
 pub use visibility::{pixel_footprint_m, theta_tilde_max, theta_tilde_min};
 
-/// Mean Earth radius in metres (the sphere every scene uses; `DESIGN.md`, "Conventions").
+/// Mean Earth radius in metres (the sphere every scene uses; `docs/design.md#conventions`).
 pub const EARTH_RADIUS_M: f64 = 6_371_000.0;

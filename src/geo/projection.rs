@@ -8,7 +8,7 @@
 //!
 //! Reversed-Z stores depth = near/d. An f32 has the same relative precision (2⁻²⁴) at every
 //! magnitude and this depth is a power law in d, so distances resolve to about d·6e-8 from the
-//! near plane to the whole planet (`DESIGN.md`, "Conventions").
+//! near plane to the whole planet (`docs/design.md#conventions`).
 
 use glam::{DMat4, DVec3, DVec4};
 
@@ -24,9 +24,16 @@ pub const NEAR_PLANE_MAX_M: f64 = 100.0;
 /// plane costs nothing far away; it only has to stay closer than the nearest visible surface
 /// (half the height leaves room for ground rising in front of the camera). The cap keeps it small
 /// against terrain seen from high up; the floor keeps it positive for a camera on the ground
-/// (1 mm in `DESIGN.md`'s stiff cases), or below it, where height is negative.
+/// (1 mm in `docs/design.md#stiff-cases`), or below it, where height is negative.
 pub fn near_plane_m(height_above_terrain_m: f64) -> f64 {
     (0.5 * height_above_terrain_m).clamp(NEAR_PLANE_MIN_M, NEAR_PLANE_MAX_M)
+}
+
+/// The focal length in pixels of an image `height_px` tall: pixels per radian at its centre,
+/// (H/2)/tan(fov_y/2) (λ of error-bounded-projective-grid.md eq. 3, the paper's w/φ). The one
+/// copy the planner, the renderer, the metric and the projected grid share.
+pub fn focal_length_px(height_px: u32, fov_y_rad: f64) -> f64 {
+    0.5 * f64::from(height_px.max(1)) / (0.5 * fov_y_rad).tan()
 }
 
 /// Reversed-Z infinite perspective: clip = (x·f/aspect, y·f, near, −z) with f = 1/tan(fov_y/2),

@@ -1,7 +1,7 @@
 //! The atmosphere: single scattering in exponential Rayleigh and Mie layers (f64 twin of
 //! `shaders/common/look.wgsl`).
 //!
-//! A documented approximation of the physically based models DESIGN.md names (Bruneton &
+//! A documented approximation of the physically based models docs/design.md#sky-models names (Bruneton &
 //! Neyret 2008, Hillaire 2020): the same media and phase functions, but single scattering only
 //! and no lookup tables. Along a view segment the in-scattered light is integrated with a few
 //! midpoint samples; the sunlight reaching each sample is attenuated by the column of air

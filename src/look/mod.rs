@@ -1,5 +1,5 @@
-//! The look of the planet: proto-textured surface types, water and the atmosphere (README
-//! "The look").
+//! The look of the planet: proto-textured surface types, water and the atmosphere
+//! (docs/look.md#the-look).
 //!
 //! None of it changes what is measured except water, which is part of the terrain function
 //! (`Terrain::water_level_m`: the surface is max(h, level) for geometry, reference and metric

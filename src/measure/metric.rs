@@ -1,4 +1,4 @@
-//! The per-pixel error metric of DESIGN.md "Measuring", from a rendered frame's depth:
+//! The per-pixel error metric of docs/design.md#measuring, from a rendered frame's depth:
 //!
 //! surface point p (reversed-Z depth → view space) → (φ, θ, h) → δ = |h − h_true(φ, θ)| →
 //! ρ = λ·δ/‖p − e‖ pixels,
@@ -25,10 +25,8 @@ use crate::render::offscreen::RenderedFrame;
 /// The paper's threshold γ for "error pixels" (its Table 1 counts ρ > γ), by default 1 px.
 pub const DEFAULT_THRESHOLD_PX: f64 = 1.0;
 
-/// λ of eq. 3: pixels per radian at the centre of an image `height_px` tall.
-pub fn pixels_per_radian(height_px: u32, fov_y_rad: f64) -> f64 {
-    0.5 * f64::from(height_px) / (0.5 * fov_y_rad).tan()
-}
+/// λ of eq. 3: pixels per radian at the centre of an image (the focal length in pixels).
+pub use crate::geo::projection::focal_length_px as pixels_per_radian;
 
 /// The surface point under pixel (x, y) in view space (planet centre at the origin), from the
 /// frame's reversed-Z depth; None where it shows sky (depth 0).

@@ -1,4 +1,4 @@
-//! Measuring the renderer honestly (DESIGN.md "Measuring"): an f64 reference ray caster over
+//! Measuring the renderer honestly (docs/design.md#measuring): an f64 reference ray caster over
 //! the terrain function and the per-pixel screen-space error of a rendered frame.
 //!
 //! Source: `error-bounded-projective-grid.md` §4, eq. 2 (object-space error δ) and eq. 3
@@ -10,7 +10,6 @@
 //! | --- | --- |
 //! | [`reference`] | [`HeightField`] (the terrain function and its local bounds), the ray caster giving each pixel's true hit or sky |
 //! | [`metric`] | per-pixel δ and ρ from a rendered depth buffer, coverage against the reference, statistics, heat map |
-//! | [`plot`] | the report's error-against-time scatter plot with its Pareto front, as PNG and SVG (`plotters`, embedded DejaVu Sans) |
 //!
 //! | frame | convention (as [`crate::geo`]) |
 //! | --- | --- |
@@ -19,7 +18,6 @@
 //! | distance | metres along the unit ray from the eye ([`crate::geo::pixel_ray_view`]) |
 
 pub mod metric;
-pub mod plot;
 pub mod reference;
 
 pub use metric::{

@@ -1,6 +1,6 @@
 //! The reference: an f64 CPU ray caster over the terrain function, giving each pixel its true
 //! hit (distance along the ray and surface point) or sky, for the same camera, viewport, pixel
-//! centres and projection as the renderer (DESIGN.md "Measuring": coverage mismatches are
+//! centres and projection as the renderer (docs/design.md#measuring: coverage mismatches are
 //! counted against it).
 //!
 //! The terrain is a [`HeightField`]: its height at a unit vector (for [`Terrain`]: the DEM's
@@ -645,7 +645,7 @@ impl<'a, H: HeightField + ?Sized> RayCaster<'a, H> {
             camera_from_view: camera.view_from_camera().transpose(),
             world_from_view: camera.view_frame().world_from_view,
             viewer_u: camera.view_frame().world_from_view * DVec3::Z,
-            focal_px: 0.5 * f64::from(height.max(1)) / (0.5 * camera.fov_y_rad()).tan(),
+            focal_px: crate::geo::projection::focal_length_px(height, camera.fov_y_rad()),
             radius_m,
             shell_top_m: radius_m + hi_m + SHELL_MARGIN_M,
             shell_bottom_m: (radius_m + lo_m - SHELL_MARGIN_M).max(0.0),

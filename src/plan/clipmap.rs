@@ -11,12 +11,11 @@
 use std::f64::consts::PI;
 
 use crate::clipmap::density::{Density, DensityCap, DensityPlan, ScreenScale, detail_density_cap};
+use crate::clipmap::draw_list::{Cone, DrawList, PlanarCut, SectorBounds};
 use crate::clipmap::levels::{
     GridRect, LevelGrid, reference_depends_on_ground, reference_height_m,
 };
-use crate::clipmap::selection::{
-    Cone, DrawList, LevelSelection, LevelStatus, PlanarCut, SectorBounds,
-};
+use crate::clipmap::selection::{LevelSelection, LevelStatus};
 use crate::clipmap::settings::level_outer_theta_rad;
 use crate::clipmap::{ClipmapSettings, RingMesh};
 use crate::geo::visibility;
@@ -58,7 +57,7 @@ pub struct ClipmapPlan {
     /// The ring density of every drawn level (set by [`ClipmapPlan::cull`]).
     pub densities: DensityPlan,
     /// Test hook: changes each drawn level's density (given the mesh's coarsest) after the
-    /// plan chose it (`tests/density.rs` compares a morphed density with the next one).
+    /// plan chose it (`tests/gpu/density.rs` compares a morphed density with the next one).
     pub density_map: Option<DensityMap>,
     /// The coarsest density each level may take (indexed by level; None: the mesh's coarsest
     /// everywhere). The renderer caps the levels whose textures hold detail geometry
@@ -302,7 +301,7 @@ pub fn screen_scale(view: &ViewPlan) -> ScreenScale {
         radius_m: view.radius_m,
         altitude_m: view.camera.altitude_m,
         ground_m: view.camera.altitude_m - view.height_above_terrain_m,
-        focal_px: view.height_px as f64 / (2.0 * (0.5 * view.fov_y_rad).tan()),
+        focal_px: crate::geo::projection::focal_length_px(view.height_px, view.fov_y_rad),
     }
 }
 

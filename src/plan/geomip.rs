@@ -13,7 +13,7 @@ use std::collections::HashMap;
 
 use glam::DVec2;
 
-use crate::clipmap::selection::Sphere;
+use crate::clipmap::draw_list::Sphere;
 use crate::geo::sphere;
 use crate::planar::LocalFrame;
 use crate::planar::geomip::{
@@ -149,7 +149,7 @@ impl GeomipState {
         let world_from_view = view.camera.view_frame().world_from_view;
         let view_from_world = world_from_view.transpose();
         let eye_world = nadir * (radius + view.camera.altitude_m);
-        let lambda = view.height_px as f64 / (2.0 * (0.5 * view.fov_y_rad).tan());
+        let lambda = crate::geo::projection::focal_length_px(view.height_px, view.fov_y_rad);
         let half_diag = patch_m * std::f64::consts::FRAC_1_SQRT_2;
 
         let mut levels = vec![-1.0; cols * cols];

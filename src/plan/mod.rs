@@ -269,8 +269,8 @@ impl ViewPlan {
     }
 
     /// The view frustum (culling).
-    pub fn frustum(&self) -> crate::clipmap::selection::Frustum {
-        crate::clipmap::selection::Frustum::new(
+    pub fn frustum(&self) -> crate::clipmap::draw_list::Frustum {
+        crate::clipmap::draw_list::Frustum::new(
             self.camera_from_view,
             self.eye_view_m(),
             self.fov_y_rad,

@@ -14,7 +14,7 @@
 //!   box-filters each pixel's interval of the importance's running sum; on a vertex grid the
 //!   same walk gives the interval ends (the inverse of the running sum), which keeps the
 //!   boundary exactly on the square's edges.
-//! - Guards (DESIGN.md "Numerics"): importance is clamped into [max/K, max] (K =
+//! - Guards (docs/design.md#numerics): importance is clamped into [max/K, max] (K =
 //!   [`WarpSettings::max_compression`]), so I_avg > 0 in every pass and no cell is more than K
 //!   times narrower than uniform; NaN and negatives count as 0, +∞ as the limit of a huge
 //!   value. Separate row and column passes can fold a grid (Fig. 5 does not check); where a

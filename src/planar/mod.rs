@@ -12,7 +12,7 @@
 //!
 //! The f64 → f32 boundary is [`LocalFrame::view_basis`]: the anchor and its axes rotated into
 //! view space (the viewer on +z̃) once per frame in f64; the GPU adds plane offsets of at most a
-//! few kilometres to them, so nothing large cancels in f32 (DESIGN.md "Numerics").
+//! few kilometres to them, so nothing large cancels in f32 (docs/design.md#numerics).
 
 pub mod geomip;
 pub mod grid_warp;

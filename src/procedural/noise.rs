@@ -1,5 +1,5 @@
 //! The auxiliary function S of eq. 1 (infinite-landscapes-projected-grid.md §2.1): value noise
-//! over a 3-D integer lattice, sampled on the sphere (DESIGN.md "Detail on a sphere").
+//! over a 3-D integer lattice, sampled on the sphere (docs/design.md#detail-on-a-sphere).
 //!
 //! - **3-D, not (φ, θ)**: a lattice in map space converges at the poles and is cut at the
 //!   antimeridian; one over ECEF space has neither and is isotropic by construction.

@@ -21,7 +21,7 @@ use crate::dem::pyramid::{CodeFn, Plane};
 use crate::geo::sphere;
 use crate::plan::{HeightSource, LevelFill, TerrainQuery};
 use crate::planar::projgrid::CellBounds;
-use crate::stream::source::open_source;
+use crate::stream::open_source;
 use crate::stream::{
     Completion, Priority, StreamSettings, StreamStats, TileCache, TileData, TileKey, TileStreamer,
 };
@@ -31,7 +31,6 @@ use crate::procedural::Detail;
 
 use super::RenderError;
 use super::detail::DetailResources;
-use super::fill::band_limit_texel_m;
 use super::gpu_data::{DemFillJob, DemFillParams};
 use super::tiles::{DemFillPass, GpuTileCache};
 
@@ -347,7 +346,7 @@ impl DemFeed {
         for job in levels {
             let level = self
                 .dem
-                .level_for_texel(band_limit_texel_m(&job.grid, self.dem.radius_m()));
+                .level_for_texel(job.grid.band_limit_texel_m(self.dem.radius_m()));
             let mut params = Vec::new();
             let mut tiles = Vec::new();
             for rect in &job.rects {

@@ -8,7 +8,7 @@ use wgpu::util::DeviceExt;
 use crate::clipmap::levels::LevelGrid;
 use crate::procedural::Detail;
 
-use super::fill::DispatchParams;
+use super::dispatch::DispatchParams;
 use super::gpu_data::DetailFillParams;
 
 /// Format of the partial-octave textures: σ·t_k in metres. An octave's value is small next to

@@ -1,7 +1,7 @@
 //! The f64 → f32 boundary and the Rust ↔ WGSL contract.
 //!
 //! Every struct the GPU reads is declared here (or, for the f32 twins the tests share, named
-//! here), with its byte layout described by [`GpuStruct`]; `tests/shader_contract.rs` checks
+//! here), with its byte layout described by [`GpuStruct`]; `tests/cpu/shader_contract.rs` checks
 //! each description against naga's reflection of the assembled shader modules (size, member
 //! offsets, member types), with no GPU. The conversions from a frame plan (f64 metres and
 //! radians) into these structs are the only place where a frame's metres and radians become f32
@@ -20,7 +20,6 @@ use crate::planar::geomip::Patch;
 use crate::procedural::{Detail, LevelOctaves, MAX_OCTAVES, OctaveAnchorF32};
 use crate::terrain::analytic::{AnalyticPlanet, SCALES, WaveAt};
 
-use super::fill::band_limit_texel_m;
 use super::shader::{self, MAX_LEVELS};
 
 // ---------------------------------------------------------------------------------------------
@@ -36,7 +35,7 @@ pub struct FieldLayout {
     pub wgsl_type: String,
 }
 
-/// A GPU struct as Rust lays it out: what `tests/shader_contract.rs` compares with naga.
+/// A GPU struct as Rust lays it out: what `tests/cpu/shader_contract.rs` compares with naga.
 /// Padding members (names starting with `_`) are not listed: only the size covers them.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct StructLayout {
@@ -159,7 +158,7 @@ pub struct FrameUniforms {
 }
 
 /// `LookUniforms` in `shaders/common/look.wgsl`: the atmosphere, the proto-textures' and the
-/// water's anchors (one per frame; README "The look").
+/// water's anchors (one per frame; docs/look.md#the-look).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub struct LookUniforms {
@@ -605,7 +604,7 @@ impl BumpUniforms {
         b.sigma = sigma_params(detail, detail.radius_m() as f32);
         let p = detail.params();
         // Octaves of cells at least two pixels: λ_px(d) = log_r(L_0·focal/(2d)) + 1.
-        let focal_px = view.height_px as f64 / (2.0 * (0.5 * view.fov_y_rad).tan());
+        let focal_px = crate::geo::projection::focal_length_px(view.height_px, view.fov_y_rad);
         let first = detail.octaves().first().map_or(1.0, |o| o.cell_m);
         let y = 1.0 / p.lacunarity.ln();
         b.lambda_px = [
@@ -693,7 +692,7 @@ impl PlanarUniforms {
             grid_cols: cols,
             grid_rows: rows,
             ray_step_px: crate::planar::projgrid::RAY_STEP_PX as f32,
-            px_per_rad: crate::measure::metric::pixels_per_radian(view.height_px, view.fov_y_rad)
+            px_per_rad: crate::geo::projection::focal_length_px(view.height_px, view.fov_y_rad)
                 as f32,
             ..Self::zeroed()
         }
@@ -797,168 +796,6 @@ gpu_struct!(RingVertex as "RingVertex" {
 pub const RING_VERTEX_ATTRIBUTES: [wgpu::VertexAttribute; 6] = wgpu::vertex_attr_array![
     0 => Float32x3, 1 => Float32, 2 => Float32, 3 => Float32, 4 => Uint32, 5 => Float32
 ];
-
-// ---------------------------------------------------------------------------------------------
-// The contract each assembled module must keep
-
-/// A buffer binding: `@group(group) @binding(binding)` holds the WGSL type `wgsl_type`.
-#[derive(Clone, Debug)]
-pub struct BufferBinding {
-    pub group: u32,
-    pub binding: u32,
-    pub wgsl_type: String,
-}
-
-/// What Rust assumes of one assembled shader module.
-#[derive(Clone, Debug)]
-pub struct PassContract {
-    pub file: &'static str,
-    /// The assembled source: generated constants, the shared library, the pass.
-    pub source: String,
-    pub structs: Vec<StructLayout>,
-    pub buffers: Vec<BufferBinding>,
-    /// The vertex input struct and the buffer layout Rust gives it.
-    pub vertex: Option<(StructLayout, &'static [wgpu::VertexAttribute])>,
-    /// `@workgroup_size` of the compute entry point `cs_main`, which Rust's dispatch counts use.
-    pub workgroup_size: Option<[u32; 3]>,
-}
-
-/// Every shader module globe builds, with what Rust assumes of it.
-pub fn pass_contracts() -> Vec<PassContract> {
-    // Both fills: the detail's block at group 1.
-    let detail_buffer = || BufferBinding {
-        group: 1,
-        binding: 0,
-        wgsl_type: DetailFillParams::wgsl_type(),
-    };
-    let buffer = |binding, wgsl_type: String| BufferBinding {
-        group: 0,
-        binding,
-        wgsl_type,
-    };
-    let workgroup = [shader::WORKGROUP_SIZE, shader::WORKGROUP_SIZE, 1];
-    vec![
-        PassContract {
-            file: "terrain.wgsl",
-            source: shader::assemble(shader::TERRAIN),
-            structs: vec![
-                FrameUniforms::layout(),
-                LevelUniforms::layout(),
-                TransformUniformsF32::layout(),
-                BumpUniforms::layout(),
-                DetailOctaveParams::layout(),
-                StructLayout {
-                    wgsl_name: "MeshVertex",
-                    ..RingVertex::layout()
-                },
-                LookUniforms::layout(),
-                PlanarUniforms::layout(),
-                PatchGpu::layout(),
-                PlacedVertex::layout(),
-            ],
-            buffers: vec![
-                buffer(0, FrameUniforms::wgsl_type()),
-                // The ring mesh's triangle list again, read by the wireframe draw.
-                buffer(15, "array<u32>".to_string()),
-                // The planar methods' group (render::planar).
-                BufferBinding {
-                    group: 1,
-                    binding: 0,
-                    wgsl_type: PlanarUniforms::wgsl_type(),
-                },
-                BufferBinding {
-                    group: 1,
-                    binding: 1,
-                    wgsl_type: "array<PatchGpu>".to_string(),
-                },
-                BufferBinding {
-                    group: 1,
-                    binding: 2,
-                    wgsl_type: "array<u32>".to_string(),
-                },
-                buffer(1, <[LevelUniforms; MAX_LEVELS as usize]>::wgsl_type()),
-                buffer(4, BumpUniforms::wgsl_type()),
-                buffer(5, "array<f32>".to_string()),
-                // The ring vertices again, read by index for the morph's neighbours.
-                buffer(8, "array<MeshVertex>".to_string()),
-                buffer(9, LookUniforms::wgsl_type()),
-                // The vertex pre-pass's output and work list (render::placement).
-                BufferBinding {
-                    group: 2,
-                    binding: 0,
-                    wgsl_type: "array<PlacedVertex>".to_string(),
-                },
-                BufferBinding {
-                    group: 2,
-                    binding: 1,
-                    wgsl_type: "array<u32>".to_string(),
-                },
-            ],
-            vertex: Some((RingVertex::layout(), &RING_VERTEX_ATTRIBUTES)),
-            workgroup_size: None,
-        },
-        PassContract {
-            file: "fill_analytic.wgsl",
-            source: shader::assemble(shader::FILL_ANALYTIC),
-            structs: vec![
-                FillParams::layout(),
-                WaveParams::layout(),
-                DetailFillParams::layout(),
-                DetailOctaveParams::layout(),
-                DeltaOctaveParams::layout(),
-            ],
-            buffers: vec![buffer(0, FillParams::wgsl_type()), detail_buffer()],
-            vertex: None,
-            workgroup_size: Some(workgroup),
-        },
-        PassContract {
-            file: "fill_dem.wgsl",
-            source: shader::assemble(shader::FILL_DEM),
-            structs: vec![
-                DemFillParams::layout(),
-                DetailFillParams::layout(),
-                DetailOctaveParams::layout(),
-                DeltaOctaveParams::layout(),
-            ],
-            buffers: vec![buffer(0, DemFillParams::wgsl_type()), detail_buffer(), {
-                // The page table: one slot index per pyramid tile.
-                buffer(3, "array<u32>".to_string())
-            }],
-            vertex: None,
-            workgroup_size: Some(workgroup),
-        },
-        PassContract {
-            file: "sky.wgsl",
-            source: shader::assemble(shader::SKY),
-            structs: vec![LookUniforms::layout()],
-            buffers: vec![buffer(0, LookUniforms::wgsl_type())],
-            vertex: None,
-            workgroup_size: None,
-        },
-        PassContract {
-            file: "fill_normals.wgsl",
-            source: shader::assemble(shader::FILL_NORMALS),
-            structs: vec![NormalParams::layout()],
-            buffers: vec![buffer(0, NormalParams::wgsl_type())],
-            vertex: None,
-            workgroup_size: Some(workgroup),
-        },
-        PassContract {
-            file: "water_cull.wgsl",
-            source: shader::assemble(shader::WATER_CULL),
-            structs: vec![WaterCullParams::layout()],
-            buffers: vec![
-                buffer(0, WaterCullParams::wgsl_type()),
-                buffer(2, "array<f32>".to_string()),
-                buffer(3, "array<u32>".to_string()),
-                buffer(4, "array<u32>".to_string()),
-                buffer(5, "array<u32>".to_string()),
-            ],
-            vertex: None,
-            workgroup_size: Some([64, 1, 1]),
-        },
-    ]
-}
 
 // ---------------------------------------------------------------------------------------------
 // Plan → GPU data (f64 → f32)
@@ -1179,7 +1016,7 @@ impl FillParams {
             ref_m: grid.ref_m as f32,
             _pad: [0; 3],
             waves: planet
-                .waves_at(phi_r, theta_r, band_limit_texel_m(grid, planet.radius_m))
+                .waves_at(phi_r, theta_r, grid.band_limit_texel_m(planet.radius_m))
                 .map(|w| WaveParams::from(&w)),
         }
     }

@@ -4,9 +4,9 @@
 use crate::look::proto::{self, MIP_LEVELS, MipKind, TEXTURE_SIZE};
 use crate::look::{SKY_RING_SEGMENTS, SkyRing};
 
+use super::formats::DEPTH_FORMAT;
 use super::gpu_data::LookUniforms;
 use super::shader;
-use super::terrain::DEPTH_FORMAT;
 
 /// Texels of the sky-view table (azimuth, elevation): 1.4° of azimuth per column (the sun's
 /// forward-scattering lobe is tens of degrees wide), rows crowded at the horizon.

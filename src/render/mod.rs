@@ -1,13 +1,16 @@
 //! Render plumbing (wgpu): device context, shader assembly, the terrain pass with its compute
 //! fill, the planar LOD methods' resources, and the offscreen target used by `globe render`, the tests and the benchmarks.
 //!
-//! Precision boundary (DESIGN.md): everything arriving here is f64; the only f32 values the GPU
+//! Precision boundary (docs/design.md#numerics): everything arriving here is f64; the only f32 values the GPU
 //! sees are relative to the viewer (view-space offsets, heights, small map-space offsets).
 
 pub mod context;
+pub mod contracts;
 pub mod dem_feed;
 pub mod detail;
+pub mod dispatch;
 pub mod fill;
+pub mod formats;
 pub mod gpu_data;
 pub mod look;
 pub mod normals;

@@ -11,7 +11,8 @@ use glam::DVec3;
 
 use crate::clipmap::levels::{GridRect, LevelGrid};
 
-use super::fill::{DispatchParams, FillJob};
+use super::dispatch::DispatchParams;
+use super::fill::FillJob;
 use super::gpu_data::NormalParams;
 use super::shader;
 

@@ -3,11 +3,9 @@
 
 use crate::geo::camera::Camera;
 
-use super::terrain::{DEPTH_FORMAT, FrameInfo, TerrainRenderer};
+use super::formats::{COLOR_FORMAT, DEPTH_FORMAT};
+use super::terrain::{FrameInfo, TerrainRenderer};
 use super::{GpuContext, RenderError};
-
-/// Colour format of offscreen frames (sRGB, so PNGs look as they do in the window).
-pub const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrgb;
 
 /// A colour + depth target of a fixed size.
 pub struct OffscreenFrame {

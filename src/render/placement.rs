@@ -19,15 +19,11 @@
 use std::ops::Range;
 
 use crate::clipmap::RingMesh;
+use crate::clipmap::draw_list::Variant;
 use crate::clipmap::mesh::RangeVertices;
-use crate::clipmap::selection::Variant;
 
 use super::gpu_data::PlacedVertex;
-
-/// `@workgroup_size` of `cs_place`.
-pub const PLACE_WORKGROUP: u32 = 64;
-/// Work list padding: no vertex.
-pub const PLACE_NONE: u32 = u32::MAX;
+use super::shader::{PLACE_NONE, PLACE_WORKGROUP};
 
 /// The pre-pass's buffers and the frame's work lists.
 pub struct Placement {

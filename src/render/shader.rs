@@ -1,7 +1,7 @@
 //! Shader assembly: constants generated from Rust, then the shared WGSL library, then the pass.
 //!
 //! Every module-scope constant of the assembled shaders is written here from its Rust value,
-//! so the two sides cannot drift; `tests/shader_contract.rs` fails if a shader file declares a
+//! so the two sides cannot drift; `tests/cpu/shader_contract.rs` fails if a shader file declares a
 //! module-scope `const` of its own.
 
 use crate::clipmap::settings::TransformForm;
@@ -15,6 +15,10 @@ pub const MAX_LEVELS: u32 = 48;
 pub const WORKGROUP_SIZE: u32 = 8;
 /// Page-table entry of a pyramid tile that is not on the GPU.
 pub const NO_SLOT: u32 = u32::MAX;
+/// `@workgroup_size` of the vertex pre-pass `cs_place` (`render::placement`).
+pub const PLACE_WORKGROUP: u32 = 64;
+/// Padding of the pre-pass's work list: no vertex.
+pub const PLACE_NONE: u32 = u32::MAX;
 /// Bit of `FrameUniforms::overlay`: tint each level in its own colour.
 pub const OVERLAY_LEVELS: u32 = 1;
 /// Bit of the wireframe overlay (barycentric edges).
@@ -57,8 +61,8 @@ pub fn shared_constants() -> Vec<SharedConstant> {
         c("RAY_STEPS", crate::planar::projgrid::RAY_STEPS),
         c("RAY_BISECTIONS", crate::planar::projgrid::RAY_BISECTIONS),
         c("MAX_OCTAVES", MAX_OCTAVES as u32),
-        c("PLACE_WORKGROUP", super::placement::PLACE_WORKGROUP),
-        c("PLACE_NONE", super::placement::PLACE_NONE),
+        c("PLACE_WORKGROUP", PLACE_WORKGROUP),
+        c("PLACE_NONE", PLACE_NONE),
         c("PROTO_TEXTURE_SIZE", crate::look::proto::TEXTURE_SIZE),
         c("PROTO_MIP_LEVELS", crate::look::proto::MIP_LEVELS),
         c("SKY_RING_SEGMENTS", crate::look::SKY_RING_SEGMENTS),

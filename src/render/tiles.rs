@@ -14,7 +14,7 @@ use crate::dem::pyramid::Pyramid;
 use crate::stream::{TileData, TileKey};
 
 use super::detail::DetailResources;
-use super::fill::{DispatchParams, compute_pipeline};
+use super::dispatch::{DispatchParams, compute_pipeline};
 use super::shader;
 
 pub use super::gpu_data::DemFillParams;

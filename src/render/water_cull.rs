@@ -2,7 +2,7 @@
 //!
 //! A CPU rasteriser runs both sides of a branch: every terrain fragment paid for the water's
 //! shading even with no water in view, half of a plain frame over the Alps on lavapipe
-//! (README "Water only where it can show"). A fragment shows water where the height it reads
+//! (docs/measurements.md#water-only-where-it-can-show). A fragment shows water where the height it reads
 //! from its level's normal texture lies below the water level, and that height is a convex
 //! combination of texels of the level and, in the blend band, of the next coarser one. So a
 //! level whose texels, and its coarser neighbour's, all lie at or above the level shows none.

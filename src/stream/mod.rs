@@ -1,5 +1,5 @@
 //! Tile streaming: from the memory-mapped pyramid file to the GPU without stalling a frame
-//! (DESIGN.md "Data flow").
+//! (docs/design.md#data-flow).
 //!
 //! ```text
 //! TileSource (mmap; a remote object: memory, disk cache or coalesced range requests,
@@ -30,12 +30,14 @@
 //! (replace it by renaming, as `globe-data import` does).
 
 pub mod cache;
+pub mod open;
 pub mod remote;
 pub mod source;
 pub mod streamer;
 
 pub use crate::dem::remote::{RemoteOptions, RemoteStats, RemoteStore};
 pub use cache::TileCache;
+pub use open::open_source;
 pub use remote::RemoteTileSource;
 pub use source::{FaultSettings, FaultyTileSource, MmapTileSource, TileData, TileSource};
 pub use streamer::raw_read_rate;

@@ -167,24 +167,6 @@ fn splitmix64(mut x: u64) -> u64 {
     x ^ (x >> 31)
 }
 
-/// The source for a pyramid with `faults` applied (none when inactive).
-/// A remote pyramid's source is [`super::RemoteTileSource`] (faults wrap it the same way).
-pub fn open_source(pyramid: Arc<Pyramid>, faults: FaultSettings) -> Arc<dyn TileSource> {
-    if let Some(remote) = super::RemoteTileSource::new(pyramid.clone()) {
-        return if faults.is_active() {
-            Arc::new(FaultyTileSource::new(remote, faults))
-        } else {
-            Arc::new(remote)
-        };
-    }
-    let mmap = MmapTileSource::new(pyramid);
-    if faults.is_active() {
-        Arc::new(FaultyTileSource::new(mmap, faults))
-    } else {
-        Arc::new(mmap)
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -1,5 +1,5 @@
-//! Height sources: the terrain function every LOD method approximates (DESIGN.md "One terrain
-//! function"). The analytic test planet is known in closed form at any (φ, θ), so tests can
+//! Height sources: the terrain function every LOD method approximates (one terrain
+//! function: docs/design.md#one-terrain-function). The analytic test planet is known in closed form at any (φ, θ), so tests can
 //! check rendered heights exactly; the DEM pyramid (real elevation data) joins it here.
 
 pub mod analytic;
@@ -108,7 +108,7 @@ impl Terrain {
         Self { detail, ..self }
     }
 
-    /// The same terrain with water at `level_m` (`None`: no water; README "The look").
+    /// The same terrain with water at `level_m` (`None`: no water; docs/look.md#the-look).
     pub fn with_water_level(self, level_m: Option<f64>) -> Self {
         Self {
             water_level_m: level_m,
@@ -251,7 +251,7 @@ impl Terrain {
 /// The terrain named on a command line (`--dem`): `embedded` (the default real Earth),
 /// `analytic` (the test planet), a pyramid file, or any raster globe reads (a folder of EHdr
 /// tiles, of SRTM `.hgt` tiles or of GeoTIFFs, a `.HDR`/`.DEM`, a netCDF-3 file, a GeoTIFF/COG,
-/// an `.hgt` tile: `dem::raster::open_raster`), imported into the cache first with `progress`
+/// an `.hgt` tile: `dem::open_raster`), imported into the cache first with `progress`
 /// called with the fraction done.
 pub fn open_terrain(
     spec: &str,
@@ -281,7 +281,7 @@ pub fn open_terrain_with(
             if path.is_file() && starts_with_pyramid_magic(path) {
                 return Ok(Terrain::dem_terrain(DemTerrain::open(path, radius_m)?));
             }
-            let source = crate::dem::raster::open_raster(path, None)?;
+            let source = crate::dem::open_raster(path, None)?;
             let cached = dem::cache_path_for(path)?;
             dem::import_cached(source.as_ref(), &cached, progress)?;
             Ok(Terrain::dem_terrain(DemTerrain::open(&cached, radius_m)?))

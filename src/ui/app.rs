@@ -16,7 +16,8 @@ use winit::window::WindowId;
 
 use crate::geo::camera::Camera;
 use crate::geo::sphere;
-use crate::render::offscreen::{self, OffscreenFrame};
+use crate::render::formats;
+use crate::render::offscreen::OffscreenFrame;
 use crate::render::{FrameInfo, RenderError};
 use crate::scenes::CameraSpec;
 use crate::terrain::Terrain;
@@ -510,13 +511,13 @@ impl App {
             return Err(UiError::Screenshot("no window yet".into()));
         };
         let target = OffscreenFrame::new(&gpu.ctx.device, gpu.config.width, gpu.config.height);
-        Ok(if gpu.config.format == offscreen::COLOR_FORMAT {
+        Ok(if gpu.config.format == formats::COLOR_FORMAT {
             target.render(&gpu.ctx, &mut gpu.terrain, &self.camera)?
         } else {
             // The terrain pipeline is built for the surface format; a one-off renderer for the
             // offscreen format draws the same view.
             let mut renderer = gpu
-                .build_renderer(gpu.terrain.settings.clone(), offscreen::COLOR_FORMAT)
+                .build_renderer(gpu.terrain.settings.clone(), formats::COLOR_FORMAT)
                 .map_err(|e| UiError::Render(RenderError::Gpu(e)))?;
             target.render(&gpu.ctx, &mut renderer, &self.camera)?
         })

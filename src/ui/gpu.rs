@@ -7,8 +7,8 @@ use winit::dpi::{LogicalSize, PhysicalSize};
 use winit::event_loop::{ActiveEventLoop, OwnedDisplayHandle};
 use winit::window::Window;
 
-use crate::render::offscreen;
-use crate::render::terrain::DEPTH_FORMAT;
+use crate::render::formats;
+use crate::render::formats::DEPTH_FORMAT;
 use crate::render::{FrameInfo, GpuContext, TerrainRenderer};
 use crate::terrain::Terrain;
 
@@ -268,7 +268,7 @@ fn surface_config(
                 adapter.get_info().name
             ))
         })?;
-    let preferred = [offscreen::COLOR_FORMAT, wgpu::TextureFormat::Bgra8UnormSrgb];
+    let preferred = [formats::COLOR_FORMAT, wgpu::TextureFormat::Bgra8UnormSrgb];
     config.format = preferred
         .into_iter()
         .find(|f| caps.formats.contains(f))

@@ -52,7 +52,7 @@ pub struct ViewerOptions {
     pub terrain: crate::terrain::Terrain,
     /// How DEM tiles stream (cache sizes, upload budget, injected faults).
     pub stream: crate::stream::StreamSettings,
-    /// What of the look is drawn (README "The look").
+    /// What of the look is drawn (docs/look.md#the-look).
     pub look: crate::look::LookSettings,
     /// Which LOD method draws the ground near the viewer (`--mode`).
     pub lod: crate::plan::LodSettings,

@@ -3,6 +3,8 @@
 //! the test script, so CI can never pass by skipping).
 #![allow(dead_code)]
 
+pub mod gdal;
+
 use std::sync::{Mutex, MutexGuard, OnceLock};
 
 use globe::render::GpuContext;
@@ -185,7 +187,7 @@ pub fn default_renderer(ctx: &GpuContext, terrain: &globe::terrain::Terrain) -> 
         &ctx.device,
         globe::clipmap::settings::ClipmapSettings::default(),
         terrain.clone(),
-        globe::render::offscreen::COLOR_FORMAT,
+        globe::render::formats::COLOR_FORMAT,
     )
     .unwrap()
 }

@@ -1,0 +1,214 @@
+//! `globe render`: one view headless to PNG, optionally measured.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::time::Instant;
+
+use anyhow::{Context, bail};
+use clap::Args;
+use globe::clipmap::selection::LevelStatus;
+use globe::render::formats::COLOR_FORMAT;
+use globe::render::offscreen::OffscreenFrame;
+use globe::render::{GpuContext, TerrainRenderer};
+use globe::scenes::CameraSpec;
+
+use crate::args::*;
+use crate::scenes::*;
+
+#[derive(Args)]
+#[group(id = "view", required = true, multiple = false, args = ["scene", "camera"])]
+pub struct RenderArgs {
+    /// Named scene to render (see `globe scenes`).
+    #[arg(long)]
+    pub scene: Option<String>,
+    /// Render this view instead of a scene: LAT,LON,HEIGHT,HEADING,PITCH[,ROLL] in degrees
+    /// and metres (60° vertical field of view). HEIGHT is above the terrain under the camera;
+    /// HEIGHT@sphere is above the sphere of radius R = 6 371 000 m. Latitude and pitch in
+    /// [-90, 90], longitude in [-360, 360], heading and roll any; e.g. `--camera
+    /// 45.65,10.65,500,90,-10` or `--camera=-33.4,-70.2,3000@sphere,0,-20,5`.
+    #[arg(long, value_name = "VIEW", allow_hyphen_values = true)]
+    pub camera: Option<CameraSpec>,
+    /// Image width in pixels.
+    #[arg(long, default_value_t = 1280)]
+    pub width: u32,
+    /// Image height in pixels.
+    #[arg(long, default_value_t = 720)]
+    pub height: u32,
+    /// Output PNG file.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Debug overlay to draw.
+    #[arg(long)]
+    pub overlay: Option<Overlay>,
+    /// Render with whatever tiles have arrived instead of waiting for streaming to settle.
+    #[arg(long = "no-wait")]
+    pub no_wait: bool,
+    /// Wait at most this many seconds for streaming to settle; past it, stop with what the
+    /// view was still waiting for.
+    #[arg(long = "settle-timeout", value_name = "SECONDS", default_value_t = globe::render::offscreen::SETTLE_TIMEOUT.as_secs_f64())]
+    pub settle_timeout_s: f64,
+    /// Print the frame's error: ρ statistics against the terrain function and coverage
+    /// mismatches against the reference ray caster (slow: seconds per megapixel).
+    #[arg(long)]
+    pub measure: bool,
+    #[command(flatten)]
+    pub measure_limit: MeasureArgs,
+    #[command(flatten)]
+    pub mesh: MeshArgs,
+    #[command(flatten)]
+    pub dem: DemArgs,
+    #[command(flatten)]
+    pub look: LookArgs,
+    #[command(flatten)]
+    pub lod: LodArgs,
+    #[command(flatten)]
+    pub stream: StreamArgs,
+}
+
+pub fn render(args: &RenderArgs) -> anyhow::Result<ExitCode> {
+    let (name, view) = chosen_view(args.scene.as_deref().unwrap_or_default(), args.camera)?;
+    if args.width == 0 || args.height == 0 || args.width > 16384 || args.height > 16384 {
+        bail!(
+            "--width and --height must be between 1 and 16384 (got {}×{})",
+            args.width,
+            args.height
+        );
+    }
+    let settings = args.mesh.settings()?;
+    let lod = args.lod.settings()?;
+    let stream = args.stream.settings()?;
+    let measure_limit = args.measure_limit.limit()?;
+    let settle_timeout = match args.settle_timeout_s {
+        s if s >= 0.0 && s.is_finite() => std::time::Duration::from_secs_f64(s),
+        s => bail!("--settle-timeout must be a number of seconds (got {s})"),
+    };
+    let started = Instant::now();
+    let ctx = GpuContext::headless().context("cannot render without a graphics adapter")?;
+    eprintln!("adapter: {}", ctx.adapter_description());
+    let terrain = args.dem.open()?;
+    eprintln!("terrain: {}", terrain.describe());
+    let mut renderer =
+        TerrainRenderer::with_streaming(&ctx.device, settings, terrain, COLOR_FORMAT, stream)?;
+    renderer.overlays.levels = args.overlay == Some(Overlay::Levels);
+    renderer.set_wireframe(&ctx.device, args.overlay == Some(Overlay::Wireframe));
+    renderer.set_look(&ctx.device, args.look.settings());
+    renderer.set_lod(&ctx.device, lod);
+    let camera = view.camera(|lat, lon| renderer.terrain_height_m(lat, lon));
+    let target = OffscreenFrame::new(&ctx.device, args.width, args.height);
+    let mut frame = if args.no_wait {
+        target.render_now(&ctx, &mut renderer, &camera)?
+    } else {
+        target.render_settled_within(&ctx, &mut renderer, &camera, settle_timeout)?
+    };
+    print_file_changes("globe render", frame.info.stream.as_ref());
+    if args.measure {
+        let mut progress = MeasureProgress::default();
+        let measured = globe::measure::evaluate_within(
+            &frame,
+            &camera,
+            &renderer.terrain,
+            measure_limit,
+            |done, total| progress.update(done, total),
+        )
+        .map_err(|e| args.measure_limit.explain(e.into()))?;
+        progress.finish();
+        let e = measured;
+        let coverage = e.coverage.unwrap_or_default();
+        eprintln!(
+            "error: mean ρ {:.3} px, p99 {:.3} px, max {:.3} px over {} terrain px; {:.3} % above {} px; coverage mismatches {} px (reference: {:.1} march steps per pixel)",
+            e.mean_px,
+            e.p99_px,
+            e.max_px,
+            e.pixels_measured,
+            100.0 * e.error_pixel_share,
+            e.threshold_px,
+            coverage.mismatched(),
+            coverage.reference_steps as f64 / coverage.compared.max(1) as f64
+        );
+    }
+    if args.overlay == Some(Overlay::Error) {
+        let rho = globe::measure::rho_image(&frame, &camera, &renderer.terrain);
+        globe::measure::overlay_heat(&mut frame.rgba, &rho, globe::measure::ERROR_OVERLAY_OPACITY);
+    }
+    frame
+        .save_png(&args.out)
+        .with_context(|| format!("cannot write {}", args.out.display()))?;
+
+    let sel = &frame.info.selection;
+    let count = |s: LevelStatus| sel.status.iter().filter(|x| **x == s).count();
+    eprintln!(
+        "{} {name}: {:.2}°, {:.2}°, {:.1} m ({:.2} m above terrain), heading {}°, pitch {}°, roll {}°",
+        if args.camera.is_some() {
+            "view"
+        } else {
+            "scene"
+        },
+        camera.lat_deg,
+        camera.lon_deg,
+        camera.altitude_m,
+        frame.info.height_above_terrain_m,
+        camera.heading_deg,
+        camera.pitch_deg,
+        camera.roll_deg
+    );
+    eprintln!(
+        "levels drawn {}..={} (θ̃max {:.4}°, θ̃min {:.3e}°): {} beyond the horizon, {} sub-pixel, \
+         {} out of view",
+        sel.coarsest,
+        sel.finest,
+        sel.theta_max_rad.to_degrees(),
+        sel.theta_min_rad.to_degrees(),
+        count(LevelStatus::BeyondHorizon),
+        count(LevelStatus::SubPixel),
+        count(LevelStatus::OutOfView)
+    );
+    eprintln!(
+        "ring density k per drawn level, coarse to fine (n/2^k steps, m/2^k rings): {}",
+        sel.drawn_levels()
+            .map(|l| frame.info.densities.levels[l as usize].body.k.to_string())
+            .collect::<Vec<_>>()
+            .join(" ")
+    );
+    eprintln!(
+        "triangles {} in {} draw calls; sectors drawn {}, culled {}; texels filled {}",
+        frame.info.triangles(),
+        frame.info.draw.ranges.len(),
+        frame.info.draw.sectors_drawn,
+        frame.info.draw.sectors_culled,
+        frame.info.texels_filled
+    );
+    match frame.info.planar.as_ref().map(|p| (p, &p.grid)) {
+        Some((p, Some(g))) => eprintln!(
+            "projected grid: {} triangles; {} cells with ρ > γ ({}); error buffer mean {:.3} px, max {:.3} px",
+            p.triangles,
+            g.cells_above_gamma,
+            if g.ray_cast {
+                "ray cast"
+            } else {
+                "not ray cast"
+            },
+            g.mean_rho_px,
+            g.max_rho_px
+        ),
+        Some((p, None)) => eprintln!(
+            "geomipmapping: {} patches in view ({} triangles), finest spacing {} m",
+            p.patches, p.triangles, p.spacing_m
+        ),
+        None => {}
+    }
+    eprintln!(
+        "wrote {} ({}×{}) in {:.2} s",
+        args.out.display(),
+        args.width,
+        args.height,
+        started.elapsed().as_secs_f64()
+    );
+    Ok(ExitCode::SUCCESS)
+}
+
+/// Each change to the pyramid file the watcher reported during the run, once, on stderr.
+pub fn print_file_changes(command: &str, stream: Option<&globe::render::dem_feed::FeedFrame>) {
+    for change in stream.map_or(&[][..], |s| s.file_changes_after(0)) {
+        eprintln!("{command}: {change}");
+    }
+}
