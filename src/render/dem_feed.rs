@@ -152,6 +152,19 @@ pub struct DemFeed {
     water_level_m: Option<f64>,
 }
 
+/// A level's fill jobs and the pyramid tiles they read.
+type LevelJobs = (Vec<DemFillJob>, Vec<TileKey>);
+
+/// The levels the GPU tile cache takes this frame (coarse first, those whose tiles fit beside
+/// the ones taken before) and the priority of every tile wanted.
+struct Admission {
+    taken: HashSet<TileKey>,
+    /// Per level: its tiles fit.
+    admitted: Vec<bool>,
+    needed: HashMap<TileKey, Priority>,
+    gpu_tiles_short: Option<GpuTilesShort>,
+}
+
 /// Priority of the camera's own tile (its height picks the near plane and θ̃min).
 const CAMERA_PRIORITY: Priority = 0;
 /// Bounds tiles come after the levels' tiles of the same frame.
@@ -196,6 +209,23 @@ impl DemFeed {
             rate_sample: (Instant::now(), 0),
             read_mb_per_s: 0.0,
         })
+    }
+
+    /// A feed writing into the level textures `heights`, its answers raised to `water_level_m`
+    /// (the renderer's: [`DemFeed::new`], [`DemFeed::bind`], [`DemFeed::set_water_level`]).
+    pub fn for_levels(
+        device: &wgpu::Device,
+        dem: DemTerrain,
+        settings: StreamSettings,
+        fill_capacity: u32,
+        detail: &DetailResources,
+        heights: &wgpu::TextureView,
+        water_level_m: Option<f64>,
+    ) -> Result<Self, RenderError> {
+        let mut feed = Self::new(device, dem, settings, fill_capacity, detail)?;
+        feed.bind(device, heights);
+        feed.set_water_level(water_level_m);
+        Ok(feed)
     }
 
     /// Sets the water level every terrain answer is raised to (`Terrain::water_level_m`).
@@ -339,58 +369,14 @@ impl DemFeed {
         }
         let critical = self.critical.take();
 
-        // Jobs and the tiles each level needs.
         let nadir = sphere::unit_vector(nadir_phi_theta.0, nadir_phi_theta.1);
-        let mut needed: HashMap<TileKey, Priority> = HashMap::new();
-        let mut per_level: Vec<(Vec<DemFillJob>, Vec<TileKey>)> = Vec::new();
-        for job in levels {
-            let level = self
-                .dem
-                .level_for_texel(job.grid.band_limit_texel_m(self.dem.radius_m()));
-            let mut params = Vec::new();
-            let mut tiles = Vec::new();
-            for rect in &job.rects {
-                self.jobs_for_rect(&job.grid, rect, level, &mut params, &mut tiles);
-            }
-            tiles.sort_unstable();
-            tiles.dedup();
-            per_level.push((params, tiles));
-        }
-        // The levels the GPU tile cache takes this frame, coarse first: those whose tiles fit
-        // beside the ones taken before. The others wait (their tiles are neither kept on the
-        // GPU nor read), so a cache smaller than the whole view still fills it level by level
-        // instead of filling with parts of every level; a level larger than the cache can
-        // never be filled (`gpu_tiles_short`).
-        let capacity = self.gpu.capacity();
-        let mut taken: HashSet<TileKey> = HashSet::new();
-        let mut admitted = Vec::with_capacity(per_level.len());
-        let mut largest = 0;
-        for (_, tiles) in &per_level {
-            largest = largest.max(tiles.len());
-            let new = tiles.iter().filter(|k| !taken.contains(k)).count();
-            let fits = taken.len() + new <= capacity;
-            if fits {
-                taken.extend(tiles.iter().copied());
-            }
-            admitted.push(fits);
-        }
-        for (rank, ((_, tiles), &fits)) in per_level.iter().zip(&admitted).enumerate() {
-            if !fits {
-                continue;
-            }
-            for &k in tiles {
-                let p = ((rank as u64) << 40) | self.distance_rank(k, nadir);
-                needed
-                    .entry(k)
-                    .and_modify(|q| *q = (*q).min(p))
-                    .or_insert(p);
-            }
-        }
-        let gpu_tiles_short = (largest > capacity).then_some(GpuTilesShort {
-            asked: self.settings.gpu_tiles,
-            capacity: capacity as u32,
-            needed: largest as u32,
-        });
+        let per_level = self.level_jobs(levels);
+        let Admission {
+            taken,
+            admitted,
+            mut needed,
+            gpu_tiles_short,
+        } = self.admit_levels(&per_level, nadir);
         // Tiles the CPU queries (camera height, culling bounds) missed: they are needed decoded,
         // in the LRU, even when a copy sits on the GPU (which the CPU cannot read).
         let aux = self.aux_missing.take();
@@ -461,50 +447,12 @@ impl DemFeed {
             self.note_error(&short.to_string());
         }
 
-        // Fill the levels whose tiles are all resident.
-        let mut filled = Vec::with_capacity(levels.len());
-        let mut jobs = Vec::new();
-        for (((params, tiles), &fits), job) in per_level.iter().zip(&admitted).zip(levels) {
-            let ready = fits
-                && !job.defer
-                && tiles.iter().all(|k| self.gpu.contains(k))
-                && jobs.len() + params.len() <= self.fill.capacity() as usize;
-            if ready {
-                jobs.extend_from_slice(params);
-            }
-            filled.push(ready);
-        }
-        let (details, offsets): (Vec<_>, Vec<_>) = jobs
-            .iter()
-            .map(|j| detail.block(&j.grid, j.origin[0], j.origin[1]))
-            .unzip();
-        let params: Vec<DemFillParams> = jobs
-            .iter()
-            .zip(&offsets)
-            .map(|(j, &offset)| DemFillParams::new(j, offset))
-            .collect();
-        let texels = self
-            .fill
-            .encode(queue, encoder, &params, detail, &details, timestamps);
+        let (filled, texels) = self.encode_ready_fills(
+            queue, encoder, levels, &per_level, &admitted, detail, timestamps,
+        );
 
         self.streamer.want(&missing);
-        for state in self.streamer.poll_file() {
-            if let Some(change) = &state {
-                self.file_changes.push_back(change.clone());
-                self.file_changes_total += 1;
-                if self.file_changes.len() > 16 {
-                    self.file_changes.pop_front();
-                }
-            }
-            self.file_change = state;
-        }
-        let stream = self.streamer.stats();
-        let dt = self.rate_sample.0.elapsed().as_secs_f64();
-        if dt >= 0.5 {
-            let bytes = stream.bytes_read - self.rate_sample.1;
-            self.read_mb_per_s = bytes as f64 / (1 << 20) as f64 / dt;
-            self.rate_sample = (Instant::now(), stream.bytes_read);
-        }
+        let stream = self.watch_file_and_rate();
         self.last = FeedFrame {
             stream,
             read_mb_per_s: self.read_mb_per_s,
@@ -532,6 +480,135 @@ impl DemFeed {
             file_changes_total: self.file_changes_total,
         };
         (filled, texels)
+    }
+
+    /// The fill jobs of each level of `levels` and the pyramid tiles they read (coarse first).
+    fn level_jobs(&self, levels: &[LevelFill]) -> Vec<LevelJobs> {
+        let mut per_level: Vec<LevelJobs> = Vec::new();
+        for job in levels {
+            let level = self
+                .dem
+                .level_for_texel(job.grid.band_limit_texel_m(self.dem.radius_m()));
+            let mut params = Vec::new();
+            let mut tiles = Vec::new();
+            for rect in &job.rects {
+                self.jobs_for_rect(&job.grid, rect, level, &mut params, &mut tiles);
+            }
+            tiles.sort_unstable();
+            tiles.dedup();
+            per_level.push((params, tiles));
+        }
+        per_level
+    }
+
+    /// The levels the GPU tile cache takes this frame and every tile's priority (level rank,
+    /// then distance from the nadir).
+    fn admit_levels(&self, per_level: &[LevelJobs], nadir: DVec3) -> Admission {
+        let mut needed: HashMap<TileKey, Priority> = HashMap::new();
+        // The levels the GPU tile cache takes this frame, coarse first: those whose tiles fit
+        // beside the ones taken before. The others wait (their tiles are neither kept on the
+        // GPU nor read), so a cache smaller than the whole view still fills it level by level
+        // instead of filling with parts of every level; a level larger than the cache can
+        // never be filled (`gpu_tiles_short`).
+        let capacity = self.gpu.capacity();
+        let mut taken: HashSet<TileKey> = HashSet::new();
+        let mut admitted = Vec::with_capacity(per_level.len());
+        let mut largest = 0;
+        for (_, tiles) in per_level {
+            largest = largest.max(tiles.len());
+            let new = tiles.iter().filter(|k| !taken.contains(k)).count();
+            let fits = taken.len() + new <= capacity;
+            if fits {
+                taken.extend(tiles.iter().copied());
+            }
+            admitted.push(fits);
+        }
+        for (rank, ((_, tiles), &fits)) in per_level.iter().zip(&admitted).enumerate() {
+            if !fits {
+                continue;
+            }
+            for &k in tiles {
+                let p = ((rank as u64) << 40) | self.distance_rank(k, nadir);
+                needed
+                    .entry(k)
+                    .and_modify(|q| *q = (*q).min(p))
+                    .or_insert(p);
+            }
+        }
+        let gpu_tiles_short = (largest > capacity).then_some(GpuTilesShort {
+            asked: self.settings.gpu_tiles,
+            capacity: capacity as u32,
+            needed: largest as u32,
+        });
+        Admission {
+            taken,
+            admitted,
+            needed,
+            gpu_tiles_short,
+        }
+    }
+
+    /// Fills the levels whose tiles are all resident (in order, within the fill's capacity);
+    /// per level whether it was filled, and the texels written.
+    #[allow(clippy::too_many_arguments)] // the frame's encoder and the plan's pieces, one for one
+    fn encode_ready_fills(
+        &mut self,
+        queue: &wgpu::Queue,
+        encoder: &mut wgpu::CommandEncoder,
+        levels: &[LevelFill],
+        per_level: &[LevelJobs],
+        admitted: &[bool],
+        detail: &DetailResources,
+        timestamps: Option<wgpu::ComputePassTimestampWrites<'_>>,
+    ) -> (Vec<bool>, u64) {
+        let mut filled = Vec::with_capacity(levels.len());
+        let mut jobs = Vec::new();
+        for (((params, tiles), &fits), job) in per_level.iter().zip(admitted).zip(levels) {
+            let ready = fits
+                && !job.defer
+                && tiles.iter().all(|k| self.gpu.contains(k))
+                && jobs.len() + params.len() <= self.fill.capacity() as usize;
+            if ready {
+                jobs.extend_from_slice(params);
+            }
+            filled.push(ready);
+        }
+        let (details, offsets): (Vec<_>, Vec<_>) = jobs
+            .iter()
+            .map(|j| detail.block(&j.grid, j.origin[0], j.origin[1]))
+            .unzip();
+        let params: Vec<DemFillParams> = jobs
+            .iter()
+            .zip(&offsets)
+            .map(|(j, &offset)| DemFillParams::new(j, offset))
+            .collect();
+        let texels = self
+            .fill
+            .encode(queue, encoder, &params, detail, &details, timestamps);
+        (filled, texels)
+    }
+
+    /// Takes the file watcher's reports and updates the read rate (every half second); the
+    /// streamer's counters.
+    fn watch_file_and_rate(&mut self) -> StreamStats {
+        for state in self.streamer.poll_file() {
+            if let Some(change) = &state {
+                self.file_changes.push_back(change.clone());
+                self.file_changes_total += 1;
+                if self.file_changes.len() > 16 {
+                    self.file_changes.pop_front();
+                }
+            }
+            self.file_change = state;
+        }
+        let stream = self.streamer.stats();
+        let dt = self.rate_sample.0.elapsed().as_secs_f64();
+        if dt >= 0.5 {
+            let bytes = stream.bytes_read - self.rate_sample.1;
+            self.read_mb_per_s = bytes as f64 / (1 << 20) as f64 / dt;
+            self.rate_sample = (Instant::now(), stream.bytes_read);
+        }
+        stream
     }
 
     fn note_error(&mut self, e: &str) {
@@ -662,20 +739,7 @@ impl DemFeed {
             // wrap for a regional one.
             let lon0 = (rect.gx0 as f64 * grid.dphi_rad + extra_phi).to_degrees();
             let d0 = (lon0 - west).rem_euclid(360.0);
-            let mut col_pieces = vec![(0u32, rect.width, d0)];
-            if !wraps {
-                let last = d0 + (rect.width as f64 - 1.0) * dphi_deg;
-                if last >= 360.0 {
-                    let split = ((360.0 - d0) / dphi_deg)
-                        .ceil()
-                        .clamp(1.0, rect.width as f64) as u32;
-                    let d1 = d0 + split as f64 * dphi_deg - 360.0;
-                    col_pieces = vec![(0, split, d0)];
-                    if split < rect.width {
-                        col_pieces.push((split, rect.width - split, d1));
-                    }
-                }
-            }
+            let col_pieces = column_pieces(rect.width, d0, dphi_deg, wraps);
             for (x_off, w, d) in col_pieces {
                 let col = d / g.dlon_deg - 0.5;
                 // The same column line continued back to the anchor's column.
@@ -734,35 +798,12 @@ impl DemFeed {
 
                 // Tiles: every pixel the bilinear footprints of this piece touch.
                 let r_last = row + (h as f64 - 1.0) * drow;
-                let r_lo = (row.min(r_last).floor() as i64).clamp(0, rows - 1);
-                let r_hi = (row.max(r_last).floor() as i64 + 1).clamp(0, rows - 1);
-                let c_lo = col.floor() as i64;
-                let c_hi = (col + (w as f64 - 1.0) * dcol).floor() as i64 + 1;
-                let mut col_tiles = Vec::new();
-                if wraps {
-                    if c_hi - c_lo + 1 >= cols {
-                        col_tiles.extend(0..(cols + t - 1) / t);
-                    } else {
-                        let mut c = c_lo;
-                        while c <= c_hi {
-                            let m = c.rem_euclid(cols);
-                            col_tiles.push(m / t);
-                            c += (t - m % t).min(cols - m);
-                        }
-                    }
-                } else {
-                    let (a, b) = (c_lo.clamp(0, cols - 1), c_hi.clamp(0, cols - 1));
-                    col_tiles.extend(a / t..=b / t);
-                }
-                for ty in r_lo / t..=r_hi / t {
-                    for &tx in &col_tiles {
-                        tiles.push(TileKey {
-                            level: level as u32,
-                            tx: tx as u32,
-                            ty: ty as u32,
-                        });
-                    }
-                }
+                let c_last = col + (w as f64 - 1.0) * dcol;
+                let span = PixelSpan {
+                    rows: [row.min(r_last), row.max(r_last)],
+                    cols: [col, c_last],
+                };
+                span.push_tiles(level as u32, [cols, rows], t, wraps, tiles);
             }
         }
     }
@@ -832,4 +873,74 @@ enum Fold {
     None,
     North,
     South,
+}
+
+/// The column pieces of a rectangle `width` columns wide whose first column lies `d0_deg` east
+/// of the grid's west edge: one for a wrapping grid (the shader wraps), split at the 360° wrap
+/// for a regional one. Each is (first column, columns, degrees east of the west edge).
+fn column_pieces(width: u32, d0: f64, dphi_deg: f64, wraps: bool) -> Vec<(u32, u32, f64)> {
+    let mut col_pieces = vec![(0u32, width, d0)];
+    if !wraps {
+        let last = d0 + (width as f64 - 1.0) * dphi_deg;
+        if last >= 360.0 {
+            let split = ((360.0 - d0) / dphi_deg).ceil().clamp(1.0, width as f64) as u32;
+            let d1 = d0 + split as f64 * dphi_deg - 360.0;
+            col_pieces = vec![(0, split, d0)];
+            if split < width {
+                col_pieces.push((split, width - split, d1));
+            }
+        }
+    }
+    col_pieces
+}
+
+/// The pyramid pixels (fractional rows and columns, lowest and highest) a fill piece's
+/// bilinear footprints span.
+struct PixelSpan {
+    rows: [f64; 2],
+    cols: [f64; 2],
+}
+
+impl PixelSpan {
+    /// Pushes the tiles of `level` holding every pixel the span touches (and its bilinear
+    /// neighbour) onto `tiles`; `size` is the level's (cols, rows), `t` its tile edge.
+    fn push_tiles(
+        &self,
+        level: u32,
+        size: [i64; 2],
+        t: i64,
+        wraps: bool,
+        tiles: &mut Vec<TileKey>,
+    ) {
+        let [cols, rows] = size;
+        let r_lo = (self.rows[0].floor() as i64).clamp(0, rows - 1);
+        let r_hi = (self.rows[1].floor() as i64 + 1).clamp(0, rows - 1);
+        let c_lo = self.cols[0].floor() as i64;
+        let c_hi = self.cols[1].floor() as i64 + 1;
+        let mut col_tiles = Vec::new();
+        if wraps {
+            if c_hi - c_lo + 1 >= cols {
+                col_tiles.extend(0..(cols + t - 1) / t);
+            } else {
+                let mut c = c_lo;
+                while c <= c_hi {
+                    let m = c.rem_euclid(cols);
+                    col_tiles.push(m / t);
+                    c += (t - m % t).min(cols - m);
+                }
+            }
+        } else {
+            let (a, b) = (c_lo.clamp(0, cols - 1), c_hi.clamp(0, cols - 1));
+            col_tiles.extend(a / t..=b / t);
+        }
+        for ty in r_lo / t..=r_hi / t {
+            for &tx in &col_tiles {
+                tiles.push(TileKey {
+                    level,
+                    tx: tx as u32,
+                    ty: ty as u32,
+                });
+            }
+        }
+    }
 }

@@ -18,6 +18,7 @@ pub mod offscreen;
 pub mod placement;
 pub mod planar;
 pub mod shader;
+pub mod sky;
 pub mod terrain;
 pub mod tiles;
 pub mod timing;

@@ -4,7 +4,10 @@
 //! `gpu_data` turns the plan into f32 uniforms, and the GPU does the per-texel (compute fill)
 //! and per-vertex (map transform, displacement) work.
 
-use wgpu::util::DeviceExt;
+use super::dem_feed::FeedFrame;
+use super::gpu_data::LevelUniforms;
+use super::normals::SlotRect;
+use super::planar::PlanarDraw;
 
 use crate::clipmap::draw_list::{SectorBounds, Variant};
 use crate::clipmap::levels::LevelGrid;
@@ -20,14 +23,14 @@ use crate::terrain::{Base, Terrain};
 
 use super::RenderError;
 use super::dem_feed::DemFeed;
-use super::detail::{self, DetailResources};
+use super::detail::DetailResources;
 use super::fill::{FillJob, FillPass};
-use super::gpu_data::{self, BumpUniforms, FrameUniforms, LevelUniforms, LookUniforms};
+use super::gpu_data::{self, BumpUniforms, FrameUniforms, LookUniforms};
 use super::look::LookResources;
-use super::normals::{NORMAL_FORMAT, NormalPass};
+use super::normals::NormalPass;
 use super::placement::Placement;
 use super::planar::PlanarResources;
-use super::shader::{self, MAX_LEVELS};
+use super::shader::MAX_LEVELS;
 use super::water_cull::WaterCull;
 
 pub use super::gpu_data::Overlays;
@@ -35,6 +38,7 @@ pub use super::gpu_data::Overlays;
 mod frame_info;
 mod pipelines;
 mod readback;
+mod resources;
 mod shading;
 
 pub use frame_info::FrameInfo;
@@ -43,6 +47,7 @@ pub use shading::{FAR_FOOTPRINT_M, Shading, bump_can_show, far_footprint_m};
 
 use frame_info::SETTLE_BOUNDS_GRACE;
 use pipelines::{ClipmapPipelines, GridPipelines, PipelineParts, PlanarPipelines, WirePipelines};
+use resources::{FrameBuffers, LevelTextures};
 
 pub struct TerrainRenderer {
     pub settings: ClipmapSettings,
@@ -154,6 +159,48 @@ const ANALYTIC_JOBS_PER_LEVEL: u32 = 2 * 3 * 3;
 const DEM_JOBS_PER_LEVEL: u32 = 2 * 4 * 5;
 const NORMAL_JOBS_PER_LEVEL: u32 = 2 * 4 * 4;
 
+/// Settings the renderer can draw with `terrain`: valid on their own, within the per-level
+/// uniform array, and a blend band the detail's octaves can follow.
+fn check_settings(settings: &ClipmapSettings, terrain: &Terrain) -> Result<(), RenderError> {
+    settings.validate()?;
+    if settings.levels > MAX_LEVELS {
+        return Err(RenderError::Settings(
+            crate::clipmap::settings::SettingsError::Levels(settings.levels),
+        ));
+    }
+    if let Some(d) = terrain.detail() {
+        d.check_blend(settings.blend_fraction as f64)?;
+    }
+    Ok(())
+}
+
+/// The passes that read the level textures after each fill: the normals and, where the terrain
+/// has water, the cull that proves levels dry.
+fn derived_passes(
+    device: &wgpu::Device,
+    settings: &ClipmapSettings,
+    terrain: &Terrain,
+    textures: &LevelTextures,
+) -> (NormalPass, Option<WaterCull>) {
+    let normal_pass = NormalPass::new(
+        device,
+        NORMAL_JOBS_PER_LEVEL * settings.levels,
+        &textures.heights_view,
+        &textures.partials_view,
+        &textures.normals_view,
+    );
+
+    let water_cull = terrain.water_level_m().is_some().then(|| {
+        WaterCull::new(
+            device,
+            &textures.normals_view,
+            settings.levels,
+            settings.texture_size,
+        )
+    });
+    (normal_pass, water_cull)
+}
+
 impl TerrainRenderer {
     /// A renderer with the default streaming settings.
     pub fn new(
@@ -179,296 +226,43 @@ impl TerrainRenderer {
         color_format: wgpu::TextureFormat,
         stream: StreamSettings,
     ) -> Result<Self, RenderError> {
-        settings.validate()?;
-        if settings.levels > MAX_LEVELS {
-            return Err(RenderError::Settings(
-                crate::clipmap::settings::SettingsError::Levels(settings.levels),
-            ));
-        }
-        if let Some(d) = terrain.detail() {
-            d.check_blend(settings.blend_fraction as f64)?;
-        }
+        check_settings(&settings, &terrain)?;
         let radius_m = terrain.radius_m();
         let mesh = RingMesh::build(&settings);
         let bounds = SectorBounds::new(&mesh);
 
-        let vertex_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("ring vertices"),
-            contents: bytemuck::cast_slice(&mesh.vertices),
-            // Also read by index: the morph's neighbours.
-            usage: wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::STORAGE,
-        });
-        let index_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("ring indices"),
-            contents: bytemuck::cast_slice(&mesh.indices),
-            // Also read by the wireframe draw.
-            usage: wgpu::BufferUsages::INDEX | wgpu::BufferUsages::STORAGE,
-        });
-        let frame_buffer = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("frame uniforms"),
-            size: std::mem::size_of::<FrameUniforms>() as u64,
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        let levels_buffer = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("level uniforms"),
-            size: (std::mem::size_of::<LevelUniforms>() * MAX_LEVELS as usize) as u64,
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        let heights = device.create_texture(&wgpu::TextureDescriptor {
-            label: Some("clipmap heights"),
-            size: wgpu::Extent3d {
-                width: settings.texture_size,
-                height: settings.texture_size,
-                depth_or_array_layers: settings.levels,
-            },
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format: wgpu::TextureFormat::R32Float,
-            usage: wgpu::TextureUsages::TEXTURE_BINDING
-                | wgpu::TextureUsages::STORAGE_BINDING
-                | wgpu::TextureUsages::COPY_DST
-                | wgpu::TextureUsages::COPY_SRC,
-            view_formats: &[],
-        });
-        let heights_view = heights.create_view(&wgpu::TextureViewDescriptor {
-            dimension: Some(wgpu::TextureViewDimension::D2Array),
-            ..Default::default()
-        });
-        let partials = detail::partials_texture(device, settings.texture_size, settings.levels);
-        let partials_view = partials.create_view(&wgpu::TextureViewDescriptor {
-            dimension: Some(wgpu::TextureViewDimension::D2Array),
-            ..Default::default()
-        });
+        let buffers = FrameBuffers::new(device, &mesh);
+        let textures = LevelTextures::new(device, &settings);
         let mut detail_resources = DetailResources::new(
             device,
             terrain.detail().cloned(),
             settings.blend_fraction as f64,
             DEM_JOBS_PER_LEVEL * settings.levels,
         );
-        detail_resources.bind(device, &partials_view);
-        let normals = device.create_texture(&wgpu::TextureDescriptor {
-            label: Some("clipmap normals"),
-            size: wgpu::Extent3d {
-                width: settings.texture_size,
-                height: settings.texture_size,
-                depth_or_array_layers: settings.levels,
-            },
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format: NORMAL_FORMAT,
-            usage: wgpu::TextureUsages::TEXTURE_BINDING
-                | wgpu::TextureUsages::STORAGE_BINDING
-                | wgpu::TextureUsages::COPY_SRC,
-            view_formats: &[],
-        });
-        let normals_view = normals.create_view(&wgpu::TextureViewDescriptor {
-            dimension: Some(wgpu::TextureViewDimension::D2Array),
-            ..Default::default()
-        });
-        // Bilinear and toroidal: texel (x, y) holds grid point x, y mod S.
-        let normal_sampler = device.create_sampler(&wgpu::SamplerDescriptor {
-            label: Some("normal sampler"),
-            address_mode_u: wgpu::AddressMode::Repeat,
-            address_mode_v: wgpu::AddressMode::Repeat,
-            mag_filter: wgpu::FilterMode::Linear,
-            min_filter: wgpu::FilterMode::Linear,
-            ..Default::default()
-        });
-        let normal_pass = NormalPass::new(
-            device,
-            NORMAL_JOBS_PER_LEVEL * settings.levels,
-            &heights_view,
-            &partials_view,
-            &normals_view,
-        );
-
-        let water_cull = terrain.water_level_m().is_some().then(|| {
-            WaterCull::new(
-                device,
-                &normals_view,
-                settings.levels,
-                settings.texture_size,
-            )
-        });
-
-        let bump_buffer = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("bump uniforms"),
-            size: std::mem::size_of::<BumpUniforms>() as u64,
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
+        detail_resources.bind(device, &textures.partials_view);
+        let (normal_pass, water_cull) = derived_passes(device, &settings, &terrain, &textures);
         let look_resources = LookResources::new(device, color_format);
-        // Compute too where the vertex pre-pass reads it (render::placement).
-        let place = wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::COMPUTE;
-        let uniform_entry = |binding| wgpu::BindGroupLayoutEntry {
-            binding,
-            visibility: wgpu::ShaderStages::VERTEX_FRAGMENT | wgpu::ShaderStages::COMPUTE,
-            ty: wgpu::BindingType::Buffer {
-                ty: wgpu::BufferBindingType::Uniform,
-                has_dynamic_offset: false,
-                min_binding_size: None,
-            },
-            count: None,
-        };
-        let texture_entry = |binding, visibility, filterable| wgpu::BindGroupLayoutEntry {
-            binding,
-            visibility,
-            ty: wgpu::BindingType::Texture {
-                sample_type: wgpu::TextureSampleType::Float { filterable },
-                view_dimension: wgpu::TextureViewDimension::D2Array,
-                multisampled: false,
-            },
-            count: None,
-        };
-        let storage_entry = |binding, visibility| wgpu::BindGroupLayoutEntry {
-            binding,
-            visibility,
-            ty: wgpu::BindingType::Buffer {
-                ty: wgpu::BufferBindingType::Storage { read_only: true },
-                has_dynamic_offset: false,
-                min_binding_size: None,
-            },
-            count: None,
-        };
-        let (both, fragment) = (
-            wgpu::ShaderStages::VERTEX_FRAGMENT | wgpu::ShaderStages::COMPUTE,
-            wgpu::ShaderStages::FRAGMENT,
-        );
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("terrain layout"),
-            entries: &[
-                uniform_entry(0),
-                uniform_entry(1),
-                texture_entry(2, both, false),
-                texture_entry(3, both, false),
-                uniform_entry(4),
-                storage_entry(5, place),
-                texture_entry(6, fragment, true),
-                wgpu::BindGroupLayoutEntry {
-                    binding: 7,
-                    visibility: fragment,
-                    ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
-                    count: None,
-                },
-                storage_entry(8, place),
-                uniform_entry(9),
-                texture_entry(10, fragment, true),
-                wgpu::BindGroupLayoutEntry {
-                    binding: 11,
-                    visibility: fragment,
-                    ty: wgpu::BindingType::Texture {
-                        sample_type: wgpu::TextureSampleType::Float { filterable: true },
-                        view_dimension: wgpu::TextureViewDimension::D2,
-                        multisampled: false,
-                    },
-                    count: None,
-                },
-                wgpu::BindGroupLayoutEntry {
-                    binding: 12,
-                    visibility: fragment,
-                    ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
-                    count: None,
-                },
-                storage_entry(15, wgpu::ShaderStages::VERTEX),
-            ],
-        });
+        let layout = resources::bind_group_layout(device);
         let lod = LodSettings::default();
         let planar = PlanarResources::new(device, lod.geomip.patch_size);
-        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("terrain bind group"),
-            layout: &layout,
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: frame_buffer.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: levels_buffer.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 2,
-                    resource: wgpu::BindingResource::TextureView(&heights_view),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 3,
-                    resource: wgpu::BindingResource::TextureView(&partials_view),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 4,
-                    resource: bump_buffer.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 5,
-                    resource: detail_resources.relief().as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 6,
-                    resource: wgpu::BindingResource::TextureView(&normals_view),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 7,
-                    resource: wgpu::BindingResource::Sampler(&normal_sampler),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 8,
-                    resource: vertex_buffer.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 9,
-                    resource: look_resources.uniforms.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 10,
-                    resource: wgpu::BindingResource::TextureView(&look_resources.albedo_view),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 11,
-                    resource: wgpu::BindingResource::TextureView(&look_resources.waves_view),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 12,
-                    resource: wgpu::BindingResource::Sampler(&look_resources.sampler),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 15,
-                    resource: index_buffer.as_entire_binding(),
-                },
-            ],
-        });
-        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("terrain.wgsl"),
-            source: wgpu::ShaderSource::Wgsl(shader::assemble(shader::TERRAIN).into()),
-        });
-        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("terrain pipeline layout"),
-            bind_group_layouts: &[Some(&layout), Some(planar.layout())],
-            immediate_size: 0,
-        });
+        let bind_group = resources::bind_group(
+            device,
+            &layout,
+            &buffers,
+            &textures,
+            &detail_resources,
+            &look_resources,
+        );
         let placement = Placement::new(device, &mesh);
-        let place_layout = placement.as_ref().map(|p| {
-            device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                label: Some("vertex placement pipeline layout"),
-                bind_group_layouts: &[Some(&layout), None, Some(p.layout())],
-                immediate_size: 0,
-            })
-        });
-        let pipeline_parts = PipelineParts {
-            device: device.clone(),
-            module,
-            layout: pipeline_layout,
-            vertex_stage: place_layout.is_none(),
-            place_layout,
+        let pipeline_parts = PipelineParts::new(
+            device,
+            &layout,
+            planar.layout(),
+            placement.as_ref(),
             color_format,
-            detail_on: terrain.detail().is_some(),
-            water_on: terrain.water_level_m().is_some(),
-            form: settings.transform.shader_code(),
-            level_overlay: false,
-        };
+            &terrain,
+            &settings,
+        );
         let look = LookSettings::default();
         let (pipelines, passthrough, place_pipelines) = pipeline_parts.build(device, look);
         let mut fill = FillPass::new(
@@ -476,21 +270,18 @@ impl TerrainRenderer {
             ANALYTIC_JOBS_PER_LEVEL * settings.levels,
             &detail_resources,
         );
-        fill.set_target(device, &heights_view);
+        fill.set_target(device, &textures.heights_view);
         let grids = vec![None; settings.levels as usize];
         let feed = match terrain.base() {
-            Base::Dem(dem) => {
-                let mut feed = DemFeed::new(
-                    device,
-                    dem.clone(),
-                    stream,
-                    DEM_JOBS_PER_LEVEL * settings.levels,
-                    &detail_resources,
-                )?;
-                feed.bind(device, &heights_view);
-                feed.set_water_level(terrain.water_level_m());
-                Some(feed)
-            }
+            Base::Dem(dem) => Some(DemFeed::for_levels(
+                device,
+                dem.clone(),
+                stream,
+                DEM_JOBS_PER_LEVEL * settings.levels,
+                &detail_resources,
+                &textures.heights_view,
+                terrain.water_level_m(),
+            )?),
             Base::Analytic(_) => None,
         };
         Ok(Self {
@@ -502,10 +293,10 @@ impl TerrainRenderer {
             density_map: None,
             mesh,
             bounds,
-            vertex_buffer,
-            index_buffer,
-            frame_buffer,
-            levels_buffer,
+            vertex_buffer: buffers.vertices,
+            index_buffer: buffers.indices,
+            frame_buffer: buffers.frame,
+            levels_buffer: buffers.levels,
             bind_group,
             pipelines,
             passthrough,
@@ -529,11 +320,11 @@ impl TerrainRenderer {
             fill,
             grids,
             feed,
-            heights,
+            heights: textures.heights,
             detail: detail_resources,
-            partials,
-            bump_buffer,
-            normals,
+            partials: textures.partials,
+            bump_buffer: buffers.bump,
+            normals: textures.normals,
             normal_pass,
             water_cull,
             lod,
@@ -799,6 +590,68 @@ impl TerrainRenderer {
             let device = self.pipeline_parts.device.clone();
             self.rebuild_pipelines(&device);
         }
+        let (view, mut clipmap) = self.plan_levels(camera, width_px, height_px);
+        let (texels_filled, stream, normal_jobs) =
+            self.encode_fills(queue, encoder, &view, &clipmap);
+        let normals_written = self.encode_normals(queue, encoder, &normal_jobs);
+        let planar = self.plan_close_up(queue, &view, &mut clipmap);
+        self.plan_draws(&view, &mut clipmap);
+        let (levels, bump, look, sky_ring) = self.upload_uniforms(queue, &view, &clipmap);
+        self.begin_terrain_timing(encoder);
+        // The sky from its table wherever the eye is inside the atmosphere (render::look).
+        let inside = look.eye_radius_m < look.shell[1];
+        self.look_resources
+            .prepare_sky(encoder, self.look.sky && inside && !self.sky_per_pixel);
+        let shading = self.choose_shading(&view, &clipmap, &levels, &bump);
+        if let Some(cull) = &mut self.water_cull {
+            let entries: Vec<u32> = (clipmap.draw.levels.iter().zip(&clipmap.draw.variants))
+                .map(|(&l, &v)| super::water_cull::draw_entry(l, v != Variant::Plain))
+                .collect();
+            let boxes =
+                super::water_cull::level_boxes(&self.grids, view.phi_v_rad, view.theta_v_rad);
+            cull.encode(
+                queue,
+                encoder,
+                super::water_cull::CullFrame {
+                    written: &normals_written,
+                    ranges: &clipmap.draw.ranges,
+                    entries,
+                    boxes,
+                    water_level_m: look.water_level_m,
+                },
+            );
+        }
+        self.encode_placement(queue, encoder, &clipmap.draw.pieces);
+
+        // A frame whose camera height came from coarser tiles than its own is not settled,
+        // even if those tiles have arrived meanwhile.
+        let mut stream = stream;
+        if let Some(st) = &mut stream {
+            st.complete &= view.ground_source != HeightSource::CoarserTiles;
+        }
+        FrameInfo {
+            selection: clipmap.selection,
+            densities: clipmap.densities,
+            draw: clipmap.draw,
+            texels_filled,
+            near_m: view.near_m,
+            height_above_terrain_m: view.height_above_terrain_m,
+            ground_source: view.ground_source,
+            sky_linear: view.sky_linear,
+            sky_ring,
+            shading,
+            stream,
+            planar,
+        }
+    }
+
+    /// The frame's view and the clipmap's levels and fills for it (plan, f64).
+    fn plan_levels(
+        &mut self,
+        camera: &Camera,
+        width_px: u32,
+        height_px: u32,
+    ) -> (ViewPlan, ClipmapPlan) {
         let view = ViewPlan::new(camera, width_px, height_px, self.query());
         // At rest (the same camera twice), levels take their ideal φ spans: what is drawn then
         // does not depend on where the camera came from.
@@ -817,7 +670,19 @@ impl TerrainRenderer {
         if self.lod.mode == LodMode::Clipmap && !self.draw_all_levels {
             clipmap.limit_to_view(&view, self.query());
         }
+        (view, clipmap)
+    }
 
+    /// Encodes the plan's fills (analytic, or the DEM's from the tiles at hand) and records
+    /// the grids they leave: the texels written, the stream's frame, and the rectangles the
+    /// normal pass must follow.
+    fn encode_fills(
+        &mut self,
+        queue: &wgpu::Queue,
+        encoder: &mut wgpu::CommandEncoder,
+        view: &ViewPlan,
+        clipmap: &ClipmapPlan,
+    ) -> (u64, Option<FeedFrame>, Vec<FillJob>) {
         // The fill's pass starts the fill timing, the normal pass ends it (query 3 is written
         // by whichever runs last: the normal pass runs whenever a fill wrote something).
         let timestamps = self
@@ -828,7 +693,7 @@ impl TerrainRenderer {
                 beginning_of_pass_write_index: Some(2),
                 end_of_pass_write_index: Some(3),
             });
-        let (texels_filled, stream, normal_jobs) = match (self.terrain.base(), &mut self.feed) {
+        match (self.terrain.base(), &mut self.feed) {
             (Base::Analytic(planet), _) => {
                 let fills = clipmap.fills.iter().filter(|f| !f.defer);
                 let jobs: Vec<FillJob> = fills
@@ -871,7 +736,17 @@ impl TerrainRenderer {
                 (texels, Some(feed.last.clone()), done)
             }
             (Base::Dem(_), None) => unreachable!("a DEM renderer always has a feed"),
-        };
+        }
+    }
+
+    /// Encodes the normals of the rectangles the fills wrote; which texels they cover (the
+    /// water cull reads them).
+    fn encode_normals(
+        &self,
+        queue: &wgpu::Queue,
+        encoder: &mut wgpu::CommandEncoder,
+        normal_jobs: &[FillJob],
+    ) -> Vec<SlotRect> {
         let detail = self.terrain.detail().map(|d| d.as_ref());
         let blend = self.settings.blend_fraction as f64;
         let normal_timestamps =
@@ -882,15 +757,24 @@ impl TerrainRenderer {
                     beginning_of_pass_write_index: None,
                     end_of_pass_write_index: Some(3),
                 });
-        let normals_written = self.normal_pass.encode(
+        self.normal_pass.encode(
             queue,
             encoder,
-            &normal_jobs,
+            normal_jobs,
             self.terrain.radius_m(),
             |level| detail.map_or(0, |d| d.level_octaves(level, blend).partial),
             normal_timestamps,
-        );
-        // A planar method near the viewer (its heights come from the levels just filled).
+        )
+    }
+
+    /// A planar method near the viewer: its plan and GPU data (its heights come from the
+    /// levels just filled); the clipmap's cut around it.
+    fn plan_close_up(
+        &mut self,
+        queue: &wgpu::Queue,
+        view: &ViewPlan,
+        clipmap: &mut ClipmapPlan,
+    ) -> Option<PlanarDraw> {
         let grid_on = self.lod.mode == LodMode::Projgrid && self.grid_pipelines.is_some();
         let planar_on = self
             .lod
@@ -898,24 +782,29 @@ impl TerrainRenderer {
             .planar(view.height_above_terrain_m, self.auto_planar)
             && self.planar_pipelines.is_some();
         self.auto_planar = planar_on;
-        let planar = if grid_on {
-            let plan = crate::plan::projgrid::plan(&view, &self.lod.projgrid, self.query());
+        if grid_on {
+            let plan = crate::plan::projgrid::plan(view, &self.lod.projgrid, self.query());
             Some(
                 self.planar
-                    .write_grid(queue, &view, &plan, self.lod.projgrid.ray_cast),
+                    .write_grid(queue, view, &plan, self.lod.projgrid.ray_cast),
             )
         } else if planar_on {
             let mut state = std::mem::take(&mut self.geomip_state);
-            let plan = state.plan(&view, &self.lod.geomip, self.query());
+            let plan = state.plan(view, &self.lod.geomip, self.query());
             self.geomip_state = state;
             clipmap.covered_rad = plan.covered_rad;
             clipmap.cut_rad = plan.cut_reach_rad;
-            Some(self.planar.write_geomip(queue, &view, &plan))
+            Some(self.planar.write_geomip(queue, view, &plan))
         } else {
             self.planar.write_inactive(queue);
             None
-        };
+        }
+    }
 
+    /// What the clipmap draws: the levels whose grids are held, their densities and the
+    /// sectors in view (nothing where the projected grid covers the view).
+    fn plan_draws(&self, view: &ViewPlan, clipmap: &mut ClipmapPlan) {
+        let grid_on = self.lod.mode == LodMode::Projgrid && self.grid_pipelines.is_some();
         clipmap.limit_to_held(&self.grids);
         clipmap.density_map = self.density_map;
         clipmap.density_caps = self.terrain.detail().map(|d| {
@@ -923,11 +812,11 @@ impl TerrainRenderer {
                 d,
                 &self.settings,
                 self.mesh.max_density,
-                &crate::plan::clipmap::screen_scale(&view),
+                &crate::plan::clipmap::screen_scale(view),
             )
         });
         clipmap.cull(
-            &view,
+            view,
             &self.settings,
             &self.mesh,
             &self.bounds,
@@ -939,21 +828,35 @@ impl TerrainRenderer {
             // draw nothing.
             clipmap.draw = Default::default();
         }
+    }
 
-        let levels =
-            gpu_data::level_uniforms(&view, &self.grids, &clipmap.densities, detail, blend);
+    /// The frame's uniforms (the f64 → f32 step of `gpu_data`), and the sky's ring.
+    fn upload_uniforms(
+        &mut self,
+        queue: &wgpu::Queue,
+        view: &ViewPlan,
+        clipmap: &ClipmapPlan,
+    ) -> (
+        Vec<LevelUniforms>,
+        BumpUniforms,
+        LookUniforms,
+        Option<SkyRing>,
+    ) {
+        let detail = self.terrain.detail().map(|d| d.as_ref());
+        let blend = self.settings.blend_fraction as f64;
+        let levels = gpu_data::level_uniforms(view, &self.grids, &clipmap.densities, detail, blend);
         queue.write_buffer(&self.levels_buffer, 0, bytemuck::cast_slice(&levels));
         let uniforms =
-            FrameUniforms::from_plan(&view, &clipmap, &self.settings, self.overlays, detail);
+            FrameUniforms::from_plan(view, clipmap, &self.settings, self.overlays, detail);
         queue.write_buffer(&self.frame_buffer, 0, bytemuck::bytes_of(&uniforms));
-        let mut bump = BumpUniforms::new(&view, detail);
+        let mut bump = BumpUniforms::new(view, detail);
         if self.naive_bump {
             bump.lambda_px = [f32::MAX, 0.0, bump.lambda_px[2], 0.0];
         }
         queue.write_buffer(&self.bump_buffer, 0, bytemuck::bytes_of(&bump));
         self.look_resources.upload(queue, self.look.mips);
         let mut look = LookUniforms::from_plan(
-            &view,
+            view,
             &self.atmosphere,
             self.look,
             self.terrain.water_level_m(),
@@ -983,9 +886,13 @@ impl TerrainRenderer {
             ];
         }
         queue.write_buffer(&self.look_resources.uniforms, 0, bytemuck::bytes_of(&look));
-        // Benchmark: the terrain's time runs from here (the sky table, the water cull and the
-        // vertex pre-pass are the terrain pass's work too) to the terrain pass's end; the
-        // pass-through's is its pass alone.
+        (levels, bump, look, sky_ring)
+    }
+
+    /// Benchmark: the terrain's time runs from here (the sky table, the water cull and the
+    /// vertex pre-pass are the terrain pass's work too) to the terrain pass's end; the
+    /// pass-through's is its pass alone.
+    fn begin_terrain_timing(&mut self, encoder: &mut wgpu::CommandEncoder) {
         self.timing_started = false;
         if let Some(q) = self
             .fill_timestamps
@@ -1002,21 +909,27 @@ impl TerrainRenderer {
             });
             self.timing_started = true;
         }
-        // The sky from its table wherever the eye is inside the atmosphere (render::look).
-        let inside = look.eye_radius_m < look.shell[1];
-        self.look_resources
-            .prepare_sky(encoder, self.look.sky && inside && !self.sky_per_pixel);
+    }
+
+    /// The shading variants the frame compiles in (built on the first frame that needs them).
+    fn choose_shading(
+        &mut self,
+        view: &ViewPlan,
+        clipmap: &ClipmapPlan,
+        levels: &[LevelUniforms],
+        bump: &BumpUniforms,
+    ) -> Shading {
         // Seen from afar, the look's texture work is constant (FrameInfo::far).
         let highest_m = self.terrain.height_range_m().1;
         let shading = Shading {
             far: (self.look.textures || self.terrain.water_level_m().is_some())
                 && !self.all_shading
-                && far_footprint_m(&view, highest_m) >= FAR_FOOTPRINT_M,
+                && far_footprint_m(view, highest_m) >= FAR_FOOTPRINT_M,
             // Seen from high enough, every octave of two pixels is in the levels' geometry.
             // Without detail `BUMP` compiles nothing: keep the default pipelines.
             bump: self.all_shading
                 || !self.pipeline_parts.detail_on
-                || bump_can_show(&bump, &levels, &clipmap.draw.levels, &view, highest_m),
+                || bump_can_show(bump, levels, &clipmap.draw.levels, view, highest_m),
         };
         if shading != Shading::ALL
             && !self.overlays.wireframe
@@ -1028,28 +941,19 @@ impl TerrainRenderer {
                 .build_shading(&device, self.look, shading);
             self.shading_pipelines.push((shading, pipelines));
         }
-        if let Some(cull) = &mut self.water_cull {
-            let entries: Vec<u32> = (clipmap.draw.levels.iter().zip(&clipmap.draw.variants))
-                .map(|(&l, &v)| super::water_cull::draw_entry(l, v != Variant::Plain))
-                .collect();
-            let boxes =
-                super::water_cull::level_boxes(&self.grids, view.phi_v_rad, view.theta_v_rad);
-            cull.encode(
-                queue,
-                encoder,
-                super::water_cull::CullFrame {
-                    written: &normals_written,
-                    ranges: &clipmap.draw.ranges,
-                    entries,
-                    boxes,
-                    water_level_m: look.water_level_m,
-                },
-            );
-        }
+        shading
+    }
 
+    /// The vertex pre-pass over the draw list's pieces, where the frame's draws read it.
+    fn encode_placement(
+        &mut self,
+        queue: &wgpu::Queue,
+        encoder: &mut wgpu::CommandEncoder,
+        pieces: &[(std::ops::Range<u32>, Variant)],
+    ) {
         self.frame_placed = false;
         if let (true, Some(placement), Some(pipelines)) = (
-            self.placed_drawn() && !clipmap.draw.pieces.is_empty(),
+            self.placed_drawn() && !pieces.is_empty(),
             &mut self.placement,
             &self.place_pipelines,
         ) {
@@ -1057,32 +961,11 @@ impl TerrainRenderer {
                 &self.pipeline_parts.device,
                 queue,
                 encoder,
-                &clipmap.draw.pieces,
+                pieces,
                 pipelines,
                 &self.bind_group,
             );
             self.frame_placed = true;
-        }
-
-        // A frame whose camera height came from coarser tiles than its own is not settled,
-        // even if those tiles have arrived meanwhile.
-        let mut stream = stream;
-        if let Some(st) = &mut stream {
-            st.complete &= view.ground_source != HeightSource::CoarserTiles;
-        }
-        FrameInfo {
-            selection: clipmap.selection,
-            densities: clipmap.densities,
-            draw: clipmap.draw,
-            texels_filled,
-            near_m: view.near_m,
-            height_above_terrain_m: view.height_above_terrain_m,
-            ground_source: view.ground_source,
-            sky_linear: view.sky_linear,
-            sky_ring,
-            shading,
-            stream,
-            planar,
         }
     }
 

@@ -127,10 +127,12 @@ fn every_path_and_anchor_the_documents_name_exists() {
             let path = span.split_whitespace().next().unwrap_or("");
             let first = path.split('/').next().unwrap_or("");
             let looks_like_path = path.contains('/') || path.contains('.');
-            if looks_like_path && top.contains(first) && !path.contains(['{', '*', '<', '…']) {
-                if let Some(e) = check_target(root(), path) {
-                    broken.push(format!("{name}: {e}"));
-                }
+            if looks_like_path
+                && top.contains(first)
+                && !path.contains(['{', '*', '<', '…'])
+                && let Some(e) = check_target(root(), path)
+            {
+                broken.push(format!("{name}: {e}"));
             }
         }
         for link in relative_links(&text) {

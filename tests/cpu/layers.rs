@@ -216,7 +216,7 @@ fn use_at(s: &str) -> Option<usize> {
         let after = s[i + 3..].chars().next().is_some_and(char::is_whitespace);
         let starts =
             head.is_empty() || head.ends_with("pub") || head.ends_with([')', ']', '{', '}']);
-        whole_word && after && starts && s[..i].ends_with(char::is_whitespace) == !head.is_empty()
+        whole_word && after && starts && s[..i].ends_with(char::is_whitespace) != head.is_empty()
     })
 }
 

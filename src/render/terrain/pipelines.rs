@@ -1,10 +1,13 @@
 //! The terrain pass's pipelines: the clipmap's variants, the planar methods', the
 //! wireframe overlay's and the pass-through, built from one set of parts.
 
-use crate::clipmap::RingVertex;
+use crate::clipmap::{ClipmapSettings, RingVertex};
 use crate::look::LookSettings;
 use crate::render::formats::DEPTH_FORMAT;
 use crate::render::gpu_data::{PLACED_VERTEX_ATTRIBUTES, PlacedVertex, RING_VERTEX_ATTRIBUTES};
+use crate::render::placement::Placement;
+use crate::render::shader;
+use crate::terrain::Terrain;
 
 use super::shading::Shading;
 
@@ -85,6 +88,48 @@ pub(super) struct PipelineParts {
 }
 
 impl PipelineParts {
+    /// The parts for `terrain` drawn with `settings` into `color_format`: the assembled
+    /// terrain.wgsl, the pass's layout (group 0 and the planar methods' group) and, where the
+    /// vertex pre-pass exists, its layout.
+    pub(super) fn new(
+        device: &wgpu::Device,
+        terrain_layout: &wgpu::BindGroupLayout,
+        planar_layout: &wgpu::BindGroupLayout,
+        placement: Option<&Placement>,
+        color_format: wgpu::TextureFormat,
+        terrain: &Terrain,
+        settings: &ClipmapSettings,
+    ) -> Self {
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("terrain.wgsl"),
+            source: wgpu::ShaderSource::Wgsl(shader::assemble(shader::TERRAIN).into()),
+        });
+        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("terrain pipeline layout"),
+            bind_group_layouts: &[Some(terrain_layout), Some(planar_layout)],
+            immediate_size: 0,
+        });
+        let place_layout = placement.map(|p| {
+            device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some("vertex placement pipeline layout"),
+                bind_group_layouts: &[Some(terrain_layout), None, Some(p.layout())],
+                immediate_size: 0,
+            })
+        });
+        Self {
+            device: device.clone(),
+            module,
+            layout,
+            vertex_stage: place_layout.is_none(),
+            place_layout,
+            color_format,
+            detail_on: terrain.detail().is_some(),
+            water_on: terrain.water_level_m().is_some(),
+            form: settings.transform.shader_code(),
+            level_overlay: false,
+        }
+    }
+
     /// One pipeline of terrain.wgsl (planar.wgsl appended), its vertex stage fed by `input`.
     #[allow(clippy::too_many_arguments)]
     pub(super) fn pipeline(
