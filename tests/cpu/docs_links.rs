@@ -207,3 +207,110 @@ fn anchors_follow_github_slugs() {
     .into();
     assert_eq!(a, want);
 }
+
+/// The source files the tree must name: `src/`, `shaders/`, `data-tools/src/`, and the test
+/// binaries' modules (not their data).
+fn tree_files() -> Vec<String> {
+    let mut files = Vec::new();
+    let mut stack: Vec<PathBuf> = [
+        "src",
+        "shaders",
+        "tests",
+        "data-tools/src",
+        "data-tools/tests",
+    ]
+    .iter()
+    .map(|d| root().join(d))
+    .collect();
+    while let Some(dir) = stack.pop() {
+        for entry in std::fs::read_dir(&dir).unwrap() {
+            let path = entry.unwrap().path();
+            if path.is_dir() {
+                stack.push(path);
+            } else if path.extension().is_some_and(|e| e == "rs" || e == "wgsl") {
+                files.push(
+                    path.strip_prefix(root())
+                        .unwrap()
+                        .to_string_lossy()
+                        .replace('\\', "/"),
+                );
+            }
+        }
+    }
+    files.sort();
+    files
+}
+
+/// ARCHITECTURE.md's tree names every source file: a file is named when the block of the
+/// longest folder line above it (`src/dem/`, `tests/gpu/`) holds its name (a test module's or
+/// a shader's without the extension; a test binary's `main.rs` needs nothing).
+#[test]
+fn the_architecture_tree_names_every_source_file() {
+    let text = std::fs::read_to_string(root().join("ARCHITECTURE.md")).unwrap();
+    let tree = text
+        .split("\n## Tree\n")
+        .nth(1)
+        .expect("ARCHITECTURE.md has no `## Tree`");
+    let tree = tree.split("\n## ").next().unwrap();
+    // Blocks: a line starting at column 0 with a path opens one (several paths may share it).
+    let mut blocks: Vec<(Vec<String>, String)> = Vec::new();
+    for line in tree.lines() {
+        let first = line.split_whitespace().next().unwrap_or("");
+        if !line.starts_with(' ') && first.contains('/') {
+            let keys = line
+                .split("  ")
+                .next()
+                .unwrap()
+                .split(", ")
+                .map(|k| k.trim().to_string())
+                .collect();
+            blocks.push((keys, String::new()));
+        }
+        if let Some((_, body)) = blocks.last_mut() {
+            body.push_str(line);
+            body.push('\n');
+        }
+    }
+    let mut missing = Vec::new();
+    for file in tree_files() {
+        let block = blocks
+            .iter()
+            .filter_map(|(keys, body)| {
+                keys.iter()
+                    .filter(|k| file.starts_with(k.as_str()))
+                    .map(|k| (k.len(), body))
+                    .max()
+            })
+            .max_by_key(|(len, _)| *len);
+        let name = file.rsplit('/').next().unwrap();
+        let stem = name.trim_end_matches(".rs").trim_end_matches(".wgsl");
+        let is_test_module = file.starts_with("tests/") || file.starts_with("data-tools/tests/");
+        let named = match block {
+            Some((len, _)) if file.len() == len => true,
+            Some(_) if is_test_module && name == "main.rs" => true,
+            Some((len, body)) => {
+                let rest = &file[len..];
+                let sub_ok = rest
+                    .split('/')
+                    .rev()
+                    .skip(1)
+                    .all(|dir| body.contains(&format!("{dir}/")));
+                let wanted = if is_test_module || file.ends_with(".wgsl") {
+                    stem
+                } else {
+                    name
+                };
+                sub_ok && body.contains(wanted)
+            }
+            None => false,
+        };
+        if !named {
+            missing.push(file);
+        }
+    }
+    assert!(
+        missing.is_empty(),
+        "ARCHITECTURE.md's tree does not name:\n{}",
+        missing.join("\n")
+    );
+}
