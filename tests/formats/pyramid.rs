@@ -1041,9 +1041,13 @@ fn memory_bound() {
         return;
     }
     let exe = std::env::current_exe().expect("test binary");
+    // The child's full test name in this binary (`pyramid::memory_bound_child`): the crate's
+    // name is not part of it.
+    let module = module_path!().split_once("::").map_or("", |(_, m)| m);
+    let child = format!("{module}::memory_bound_child");
     let out = std::process::Command::new(exe)
         .args([
-            "memory_bound_child",
+            child.as_str(),
             "--exact",
             "--ignored",
             "--nocapture",

@@ -5,6 +5,7 @@
 
 mod args;
 mod bench;
+mod cli;
 mod render;
 mod report;
 mod scenes;
@@ -13,41 +14,9 @@ mod viewer;
 
 use std::process::ExitCode;
 
-use bench::BenchArgs;
-use clap::{Parser, Subcommand};
-use render::RenderArgs;
-use report::ReportArgs;
+use clap::Parser;
+use cli::{Cli, Command};
 use scenes::print_scenes;
-use viewer::ViewerArgs;
-
-#[derive(Parser)]
-#[command(
-    name = "globe",
-    version,
-    about = "A planetary globe viewer: spherical geometry clipmaps from orbit to the ground",
-    long_about = "A planetary globe viewer: spherical geometry clipmaps from orbit to the ground.\n\n\
-                  With no command, opens the viewer window. Without a display use `globe render`."
-)]
-struct Cli {
-    #[command(subcommand)]
-    command: Option<Command>,
-    #[command(flatten)]
-    viewer: ViewerArgs,
-}
-
-#[derive(Subcommand)]
-enum Command {
-    /// Render a named scene or a --camera view headless (no window, no GPU needed: a software adapter works) to PNG.
-    Render(RenderArgs),
-    /// Benchmark a scene, a --camera view or the `flight` path headless: per-frame CPU and GPU time,
-    /// triangles, levels, streaming counters (median/min/max; `--json` for one JSON object).
-    Bench(BenchArgs),
-    /// Run every method and setting over the named scenes and write report.csv, report.json,
-    /// report.md and error_vs_time.png/.svg: triangles, CPU/GPU time and the per-pixel error ρ.
-    Report(ReportArgs),
-    /// List the named scenes (the viewer's bookmarks).
-    Scenes,
-}
 
 fn main() -> ExitCode {
     match run() {

@@ -1,0 +1,39 @@
+//! The command line as clap parses it: the commands and, with none, the viewer's arguments.
+//! Each command's own arguments live beside its runner; the groups they share in `args`.
+
+use clap::{Parser, Subcommand};
+
+use crate::bench::BenchArgs;
+use crate::render::RenderArgs;
+use crate::report::ReportArgs;
+use crate::viewer::ViewerArgs;
+
+#[derive(Parser)]
+#[command(
+    name = "globe",
+    version,
+    about = "A planetary globe viewer: spherical geometry clipmaps from orbit to the ground",
+    long_about = "A planetary globe viewer: spherical geometry clipmaps from orbit to the ground.\n\n\
+                  With no command, opens the viewer window. Without a display use `globe render`."
+)]
+/// `globe [COMMAND]`: the arguments as parsed, before any is validated.
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Option<Command>,
+    #[command(flatten)]
+    pub viewer: ViewerArgs,
+}
+
+#[derive(Subcommand)]
+pub enum Command {
+    /// Render a named scene or a --camera view headless (no window, no GPU needed: a software adapter works) to PNG.
+    Render(RenderArgs),
+    /// Benchmark a scene, a --camera view or the `flight` path headless: per-frame CPU and GPU time,
+    /// triangles, levels, streaming counters (median/min/max; `--json` for one JSON object).
+    Bench(BenchArgs),
+    /// Run every method and setting over the named scenes and write report.csv, report.json,
+    /// report.md and error_vs_time.png/.svg: triangles, CPU/GPU time and the per-pixel error ρ.
+    Report(ReportArgs),
+    /// List the named scenes (the viewer's bookmarks).
+    Scenes,
+}
