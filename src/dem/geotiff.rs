@@ -186,98 +186,18 @@ impl GeoTiffRaster {
                 format!("{spp}; expected 1 (globe reads single-band elevation rasters)"),
             ));
         }
-        let compression = ifd.scalar(b, 259, Some(1), p)? as u16;
-        if max_expansion(compression) == 0 {
-            return Err(header_err(
-                p,
-                "Compression",
-                format!(
-                    "{} ({compression}) is not supported (globe's TIFF decoder is built with \
-                     Deflate, LZW and PackBits only); expected one of those or none (re-save \
-                     with gdal_translate -co COMPRESS=DEFLATE)",
-                    compression_name(compression)
-                ),
-            ));
-        }
-        let bits = ifd.scalar(b, 258, Some(1), p)?;
-        let format = ifd.scalar(b, 339, Some(1), p)?;
-        let sample = match (format, bits) {
-            (2, 16) => TiffSample::I16,
-            (1, 16) => TiffSample::U16,
-            (3, 32) => TiffSample::F32,
-            _ => {
-                let kind = match format {
-                    1 => "UInt",
-                    2 => "Int",
-                    3 => "Float",
-                    _ => "unknown format ",
-                };
-                return Err(header_err(
-                    p,
-                    "SampleFormat",
-                    format!(
-                        "{kind}{bits} samples (SampleFormat {format}, BitsPerSample {bits}) are \
-                         not supported; expected Int16, UInt16 or Float32 (gdal_translate -ot \
-                         Float32)"
-                    ),
-                ));
-            }
-        };
-        let predictor = ifd.scalar(b, 317, Some(1), p)? as u16;
-        match (predictor, sample) {
-            (1, _) | (2, TiffSample::I16 | TiffSample::U16) | (3, TiffSample::F32) => {}
-            _ => {
-                return Err(header_err(
-                    p,
-                    "Predictor",
-                    format!(
-                        "{predictor} for {sample:?} samples; expected 1 (none), 2 (horizontal, \
-                         integers) or 3 (floating point, Float32)"
-                    ),
-                ));
-            }
-        }
+        let compression = supported_compression(b, &ifd, p)?;
+        let sample = sample_type(b, &ifd, p)?;
+        let predictor = supported_predictor(b, &ifd, sample, p)?;
         let layout = chunk_layout(b, &ifd, width, height, sample, compression, p)?;
         let georef = georef::georeference(b, &ifd, width, height, p)?;
-        let nodata = match ifd.ascii(b, 42113) {
-            None => None,
-            Some(s) => {
-                let t = s.trim();
-                let v = if t.eq_ignore_ascii_case("nan") {
-                    Some(f64::NAN)
-                } else {
-                    t.parse::<f64>().ok()
-                };
-                match v {
-                    Some(v) => Some(v),
-                    None => {
-                        return Err(header_err(
-                            p,
-                            "GDAL_NODATA",
-                            format!("{t:?} is not a number; expected the no-data value"),
-                        ));
-                    }
-                }
-            }
-        };
+        let nodata = gdal_nodata(b, &ifd, p)?;
         let little_endian = b[0] == b'I';
         let bytes = Shared(Arc::new(file));
         let decoder = if compression == 1 && predictor == 1 {
             None
         } else {
-            let max_chunk = layout
-                .chunk_w
-                .saturating_mul(layout.chunk_h)
-                .saturating_mul(sample.bytes())
-                .max(1);
-            let mut limits = tiff::decoder::Limits::default();
-            limits.decoding_buffer_size = max_chunk;
-            limits.ifd_value_size = bytes.0.len();
-            limits.intermediate_buffer_size = bytes.0.len();
-            let d = tiff::decoder::Decoder::new(Cursor::new(bytes.clone()))
-                .map_err(|e| tiff_err(p, "first IFD", e))?
-                .with_limits(limits);
-            Some(Mutex::new(d))
+            Some(Mutex::new(chunk_decoder(&bytes, &layout, sample, p)?))
         };
         Ok(GeoTiffRaster {
             path,
@@ -583,6 +503,113 @@ impl GeoTiffRaster {
         }
         Ok(())
     }
+}
+
+/// The Compression tag, refusing a scheme globe's TIFF decoder is not built with.
+fn supported_compression(b: &[u8], ifd: &Ifd, p: &Path) -> Result<u16, DemError> {
+    let compression = ifd.scalar(b, 259, Some(1), p)? as u16;
+    if max_expansion(compression) == 0 {
+        return Err(header_err(
+            p,
+            "Compression",
+            format!(
+                "{} ({compression}) is not supported (globe's TIFF decoder is built with \
+                 Deflate, LZW and PackBits only); expected one of those or none (re-save \
+                 with gdal_translate -co COMPRESS=DEFLATE)",
+                compression_name(compression)
+            ),
+        ));
+    }
+    Ok(compression)
+}
+
+/// The sample type from SampleFormat and BitsPerSample: Int16, UInt16 or Float32.
+fn sample_type(b: &[u8], ifd: &Ifd, p: &Path) -> Result<TiffSample, DemError> {
+    let bits = ifd.scalar(b, 258, Some(1), p)?;
+    let format = ifd.scalar(b, 339, Some(1), p)?;
+    match (format, bits) {
+        (2, 16) => Ok(TiffSample::I16),
+        (1, 16) => Ok(TiffSample::U16),
+        (3, 32) => Ok(TiffSample::F32),
+        _ => {
+            let kind = match format {
+                1 => "UInt",
+                2 => "Int",
+                3 => "Float",
+                _ => "unknown format ",
+            };
+            Err(header_err(
+                p,
+                "SampleFormat",
+                format!(
+                    "{kind}{bits} samples (SampleFormat {format}, BitsPerSample {bits}) are \
+                     not supported; expected Int16, UInt16 or Float32 (gdal_translate -ot \
+                     Float32)"
+                ),
+            ))
+        }
+    }
+}
+
+/// The Predictor tag, refusing one that does not apply to `sample` (horizontal differencing is
+/// for integers, the floating-point predictor for Float32).
+fn supported_predictor(b: &[u8], ifd: &Ifd, sample: TiffSample, p: &Path) -> Result<u16, DemError> {
+    let predictor = ifd.scalar(b, 317, Some(1), p)? as u16;
+    match (predictor, sample) {
+        (1, _) | (2, TiffSample::I16 | TiffSample::U16) | (3, TiffSample::F32) => Ok(predictor),
+        _ => Err(header_err(
+            p,
+            "Predictor",
+            format!(
+                "{predictor} for {sample:?} samples; expected 1 (none), 2 (horizontal, \
+                 integers) or 3 (floating point, Float32)"
+            ),
+        )),
+    }
+}
+
+/// The GDAL_NODATA tag's value (`nan` included), `None` when absent; text that is not a number
+/// is an error.
+fn gdal_nodata(b: &[u8], ifd: &Ifd, p: &Path) -> Result<Option<f64>, DemError> {
+    let Some(s) = ifd.ascii(b, 42113) else {
+        return Ok(None);
+    };
+    let t = s.trim();
+    let v = if t.eq_ignore_ascii_case("nan") {
+        Some(f64::NAN)
+    } else {
+        t.parse::<f64>().ok()
+    };
+    match v {
+        Some(v) => Ok(Some(v)),
+        None => Err(header_err(
+            p,
+            "GDAL_NODATA",
+            format!("{t:?} is not a number; expected the no-data value"),
+        )),
+    }
+}
+
+/// The `tiff` crate's decoder over the mapped file, its limits set so that no buffer exceeds
+/// one chunk's samples or the file's size.
+fn chunk_decoder(
+    bytes: &Shared,
+    layout: &Layout,
+    sample: TiffSample,
+    p: &Path,
+) -> Result<tiff::decoder::Decoder<Cursor<Shared>>, DemError> {
+    let max_chunk = layout
+        .chunk_w
+        .saturating_mul(layout.chunk_h)
+        .saturating_mul(sample.bytes())
+        .max(1);
+    let mut limits = tiff::decoder::Limits::default();
+    limits.decoding_buffer_size = max_chunk;
+    limits.ifd_value_size = bytes.0.len();
+    limits.intermediate_buffer_size = bytes.0.len();
+    Ok(tiff::decoder::Decoder::new(Cursor::new(bytes.clone()))
+        .map_err(|e| tiff_err(p, "first IFD", e))?
+        .with_limits(limits))
 }
 
 /// A `tiff` crate error as ours, naming the file and what was being read.

@@ -146,114 +146,17 @@ impl EhdrMosaic {
         };
         let rg = reference.grid();
         let ref_name = file_name(reference.header_path());
-
-        // Offsets of every tile on the reference lattice.
-        let mut offsets: Vec<(i64, i64)> = Vec::with_capacity(rasters.len());
-        for t in &rasters {
-            let g = t.grid();
-            let err = |field: &str, message: String| DemError::Header {
-                path: t.header_path().to_path_buf(),
-                field: field.to_string(),
-                message,
-            };
-            for (field, mine, theirs) in [
-                ("XDIM", g.dlon_deg, rg.dlon_deg),
-                ("YDIM", g.dlat_deg, rg.dlat_deg),
-            ] {
-                if (mine - theirs).abs() > SPACING_TOLERANCE * theirs {
-                    return Err(err(
-                        field,
-                        format!(
-                            "{field} {mine} differs from {field} {theirs} of {ref_name}; \
-                             expected the tiles of a mosaic to share XDIM and YDIM"
-                        ),
-                    ));
-                }
-            }
-            let kc = (g.lon0_deg - rg.lon0_deg) / rg.dlon_deg;
-            let kr = (rg.lat0_deg - g.lat0_deg) / rg.dlat_deg;
-            for (field, k, axis) in [("ULXMAP", kc, "columns"), ("ULYMAP", kr, "rows")] {
-                if !k.is_finite()
-                    || k.abs() >= 2f64.powi(40)
-                    || (k - k.round()).abs() > LATTICE_TOLERANCE_PIXELS
-                {
-                    return Err(err(
-                        field,
-                        format!(
-                            "not on the pixel lattice of {ref_name}: its {axis} are offset by \
-                             {k} pixels from that tile's; expected a whole number (the tiles of \
-                             a mosaic must share one grid)"
-                        ),
-                    ));
-                }
-            }
-            offsets.push((kr.round() as i64, kc.round() as i64));
-        }
-
-        // The bounding grid.
-        let mut min_r = i64::MAX;
-        let mut min_c = i64::MAX;
-        let mut max_r = i64::MIN;
-        let mut max_c = i64::MIN;
-        let mut north = 0;
-        let mut west = 0;
-        let mut east = 0;
-        for (i, (t, &(kr, kc))) in rasters.iter().zip(&offsets).enumerate() {
-            let h = t.header();
-            if kr < min_r {
-                min_r = kr;
-                north = i;
-            }
-            if kc < min_c {
-                min_c = kc;
-                west = i;
-            }
-            max_r = max_r.max(kr + h.nrows as i64);
-            if kc + h.ncols as i64 > max_c {
-                max_c = kc + h.ncols as i64;
-                east = i;
-            }
-        }
-        let rows = (max_r - min_r) as usize;
-        let cols = (max_c - min_c) as usize;
-        let width = cols as f64 * rg.dlon_deg;
-        if width > 360.0 + 1e-6 {
-            return Err(DemError::Data {
-                path: rasters[west].header_path().to_path_buf(),
-                message: format!(
-                    "the tiles of {description} span {width}° of longitude from this, the \
-                     westernmost tile; expected at most 360° (mixed longitude conventions?)"
-                ),
-            });
-        }
-        // Bounded by the tiles, before anything allocates or reads by the bounding grid.
-        let tile_pixels: u128 = rasters
+        let offsets = rasters
             .iter()
-            .map(|t| t.header().nrows as u128 * t.header().ncols as u128)
-            .sum();
-        let bounding = rows as u128 * cols as u128;
-        if bounding > EhdrMosaic::MAX_BOUNDING_FACTOR as u128 * tile_pixels {
-            return Err(DemError::Data {
-                path: description.clone().into(),
-                message: format!(
-                    "the tiles hold {tile_pixels} pixels but span a bounding grid of {cols} × \
-                     {rows} = {bounding} pixels at XDIM {}, YDIM {} ({} is the westernmost \
-                     tile, {} the easternmost); expected tiles covering at least 1/{} of their \
-                     bounding grid: a mosaic is read and stored in full, so tiles far apart on \
-                     a fine lattice would make a mostly empty raster",
-                    rg.dlon_deg,
-                    rg.dlat_deg,
-                    file_name(rasters[west].header_path()),
-                    file_name(rasters[east].header_path()),
-                    EhdrMosaic::MAX_BOUNDING_FACTOR,
-                ),
-            });
-        }
+            .map(|t| lattice_offset(t, &rg, &ref_name))
+            .collect::<Result<Vec<_>, _>>()?;
+        let bounds = Bounds::of(&rasters, &offsets);
+        bounds.check_size(&rasters, &rg, &description)?;
         let grid = GeoGrid {
-            cols,
-            rows,
-            lon0_deg: rasters[west].grid().lon0_deg,
-            lat0_deg: rasters[north].grid().lat0_deg,
+            cols: bounds.cols(),
+            rows: bounds.rows(),
+            lon0_deg: rasters[bounds.west].grid().lon0_deg,
+            lat0_deg: rasters[bounds.north].grid().lat0_deg,
             dlon_deg: rg.dlon_deg,
             dlat_deg: rg.dlat_deg,
         };
@@ -262,27 +165,12 @@ impl EhdrMosaic {
             .zip(offsets)
             .map(|(raster, (kr, kc))| Tile {
                 raster,
-                row0: (kr - min_r) as usize,
-                col0: (kc - min_c) as usize,
+                row0: (kr - bounds.min_r) as usize,
+                col0: (kc - bounds.min_c) as usize,
                 overlaps: false,
             })
             .collect();
-
-        // Overlaps must agree.
-        for j in 0..tiles.len() {
-            for i in 0..j {
-                let (a, b) = (&tiles[i], &tiles[j]);
-                let rows = a.rows().start.max(b.rows().start)..a.rows().end.min(b.rows().end);
-                let cols = a.cols().start.max(b.cols().start)..a.cols().end.min(b.cols().end);
-                if rows.is_empty() || cols.is_empty() {
-                    continue;
-                }
-                check_overlap(a, b, rows, cols, &grid)?;
-                tiles[i].overlaps = true;
-                tiles[j].overlaps = true;
-            }
-        }
-
+        mark_overlaps(&mut tiles, &grid)?;
         Ok(EhdrMosaic {
             description,
             grid,
@@ -338,6 +226,166 @@ impl EhdrMosaic {
     pub fn sample_bilinear(&self, lat_deg: f64, lon_deg: f64) -> Result<Option<f64>, DemError> {
         sample::bilinear(self, lat_deg, lon_deg)
     }
+}
+
+/// Where tile `t` sits on the reference lattice `rg` (of the tile `ref_name`), as (row,
+/// column) offsets in pixels: it must share XDIM/YDIM and lie a whole number of pixels away.
+fn lattice_offset(t: &EhdrRaster, rg: &GeoGrid, ref_name: &str) -> Result<(i64, i64), DemError> {
+    let g = t.grid();
+    let err = |field: &str, message: String| DemError::Header {
+        path: t.header_path().to_path_buf(),
+        field: field.to_string(),
+        message,
+    };
+    for (field, mine, theirs) in [
+        ("XDIM", g.dlon_deg, rg.dlon_deg),
+        ("YDIM", g.dlat_deg, rg.dlat_deg),
+    ] {
+        if (mine - theirs).abs() > SPACING_TOLERANCE * theirs {
+            return Err(err(
+                field,
+                format!(
+                    "{field} {mine} differs from {field} {theirs} of {ref_name}; \
+                     expected the tiles of a mosaic to share XDIM and YDIM"
+                ),
+            ));
+        }
+    }
+    let kc = (g.lon0_deg - rg.lon0_deg) / rg.dlon_deg;
+    let kr = (rg.lat0_deg - g.lat0_deg) / rg.dlat_deg;
+    for (field, k, axis) in [("ULXMAP", kc, "columns"), ("ULYMAP", kr, "rows")] {
+        if !k.is_finite()
+            || k.abs() >= 2f64.powi(40)
+            || (k - k.round()).abs() > LATTICE_TOLERANCE_PIXELS
+        {
+            return Err(err(
+                field,
+                format!(
+                    "not on the pixel lattice of {ref_name}: its {axis} are offset by \
+                     {k} pixels from that tile's; expected a whole number (the tiles of \
+                     a mosaic must share one grid)"
+                ),
+            ));
+        }
+    }
+    Ok((kr.round() as i64, kc.round() as i64))
+}
+
+/// The bounding box of the tiles on the reference lattice (pixel offsets, end exclusive), and
+/// which tiles set its north, west and east edges (their files name the edges in messages).
+struct Bounds {
+    min_r: i64,
+    min_c: i64,
+    max_r: i64,
+    max_c: i64,
+    north: usize,
+    west: usize,
+    east: usize,
+}
+
+impl Bounds {
+    /// The box around `rasters` placed at `offsets` (first tile wins ties).
+    fn of(rasters: &[EhdrRaster], offsets: &[(i64, i64)]) -> Bounds {
+        let mut b = Bounds {
+            min_r: i64::MAX,
+            min_c: i64::MAX,
+            max_r: i64::MIN,
+            max_c: i64::MIN,
+            north: 0,
+            west: 0,
+            east: 0,
+        };
+        for (i, (t, &(kr, kc))) in rasters.iter().zip(offsets).enumerate() {
+            let h = t.header();
+            if kr < b.min_r {
+                b.min_r = kr;
+                b.north = i;
+            }
+            if kc < b.min_c {
+                b.min_c = kc;
+                b.west = i;
+            }
+            b.max_r = b.max_r.max(kr + h.nrows as i64);
+            if kc + h.ncols as i64 > b.max_c {
+                b.max_c = kc + h.ncols as i64;
+                b.east = i;
+            }
+        }
+        b
+    }
+
+    fn rows(&self) -> usize {
+        (self.max_r - self.min_r) as usize
+    }
+
+    fn cols(&self) -> usize {
+        (self.max_c - self.min_c) as usize
+    }
+
+    /// Refuses a box wider than 360° of longitude, or one the tiles fill less than
+    /// 1/[`EhdrMosaic::MAX_BOUNDING_FACTOR`] of: checked before anything allocates or reads by
+    /// the bounding grid.
+    fn check_size(
+        &self,
+        rasters: &[EhdrRaster],
+        rg: &GeoGrid,
+        description: &str,
+    ) -> Result<(), DemError> {
+        let rows = self.rows();
+        let cols = self.cols();
+        let width = cols as f64 * rg.dlon_deg;
+        if width > 360.0 + 1e-6 {
+            return Err(DemError::Data {
+                path: rasters[self.west].header_path().to_path_buf(),
+                message: format!(
+                    "the tiles of {description} span {width}° of longitude from this, the \
+                     westernmost tile; expected at most 360° (mixed longitude conventions?)"
+                ),
+            });
+        }
+        let tile_pixels: u128 = rasters
+            .iter()
+            .map(|t| t.header().nrows as u128 * t.header().ncols as u128)
+            .sum();
+        let bounding = rows as u128 * cols as u128;
+        if bounding > EhdrMosaic::MAX_BOUNDING_FACTOR as u128 * tile_pixels {
+            return Err(DemError::Data {
+                path: description.into(),
+                message: format!(
+                    "the tiles hold {tile_pixels} pixels but span a bounding grid of {cols} × \
+                     {rows} = {bounding} pixels at XDIM {}, YDIM {} ({} is the westernmost \
+                     tile, {} the easternmost); expected tiles covering at least 1/{} of their \
+                     bounding grid: a mosaic is read and stored in full, so tiles far apart on \
+                     a fine lattice would make a mostly empty raster",
+                    rg.dlon_deg,
+                    rg.dlat_deg,
+                    file_name(rasters[self.west].header_path()),
+                    file_name(rasters[self.east].header_path()),
+                    EhdrMosaic::MAX_BOUNDING_FACTOR,
+                ),
+            });
+        }
+        Ok(())
+    }
+}
+
+/// Checks every pair of overlapping tiles agrees (pairs in order (0, 1), (0, 2), (1, 2), …)
+/// and marks both as overlapping, so reads let a value beat NODATA.
+fn mark_overlaps(tiles: &mut [Tile], grid: &GeoGrid) -> Result<(), DemError> {
+    for j in 0..tiles.len() {
+        for i in 0..j {
+            let (a, b) = (&tiles[i], &tiles[j]);
+            let rows = a.rows().start.max(b.rows().start)..a.rows().end.min(b.rows().end);
+            let cols = a.cols().start.max(b.cols().start)..a.cols().end.min(b.cols().end);
+            if rows.is_empty() || cols.is_empty() {
+                continue;
+            }
+            check_overlap(a, b, rows, cols, grid)?;
+            tiles[i].overlaps = true;
+            tiles[j].overlaps = true;
+        }
+    }
+    Ok(())
 }
 
 /// Compares tiles `a` and `b` over their common mosaic rows and columns.

@@ -128,10 +128,37 @@ where
 {
     let header_path = with_suffix(path_stem, "HDR");
     let data_path = with_suffix(path_stem, &options.data_extension);
-    let fail = |message: String| DemError::Data {
-        path: data_path.clone(),
+    check_request(grid, options, &header_path, &data_path)?;
+    match write_files(grid, options, rows, &header_path, &data_path) {
+        Ok(()) => Ok(EhdrWritten {
+            header_path,
+            data_path,
+        }),
+        Err(e) => {
+            let _ = std::fs::remove_file(&data_path);
+            let _ = std::fs::remove_file(&header_path);
+            Err(e)
+        }
+    }
+}
+
+/// An error about the data file being written.
+fn data_err(data_path: &Path, message: String) -> DemError {
+    DemError::Data {
+        path: data_path.to_path_buf(),
         message,
-    };
+    }
+}
+
+/// Refuses, before any file is touched, a grid a header cannot describe, a NODATA the sample
+/// type cannot store, and a data file that would be the header.
+fn check_request(
+    grid: &GeoGrid,
+    options: &EhdrWriteOptions,
+    header_path: &Path,
+    data_path: &Path,
+) -> Result<(), DemError> {
+    let fail = |message: String| data_err(data_path, message);
     if grid.rows == 0
         || grid.cols == 0
         || grid.rows > i32::MAX as usize
@@ -146,9 +173,8 @@ where
         )));
     }
     let st = options.sample_type;
-    let range = st.int_range();
     if let Some(nd) = options.nodata {
-        let representable = match range {
+        let representable = match st.int_range() {
             Some((lo, hi)) => nd.fract() == 0.0 && nd >= lo as f64 && nd <= hi as f64,
             None => nd.is_nan() || nd == nd as f32 as f64,
         };
@@ -162,97 +188,113 @@ where
     if header_path == data_path {
         return Err(fail("the data file's extension must not be HDR".into()));
     }
+    Ok(())
+}
 
-    let result = (|| -> Result<(), DemError> {
-        let io = |e: std::io::Error| DemError::Io {
-            path: data_path.clone(),
+/// Writes the data file row by row, then the header; on error the caller removes both.
+fn write_files<I, R>(
+    grid: &GeoGrid,
+    options: &EhdrWriteOptions,
+    rows: I,
+    header_path: &Path,
+    data_path: &Path,
+) -> Result<(), DemError>
+where
+    I: IntoIterator<Item = R>,
+    R: AsRef<[f32]>,
+{
+    let fail = |message: String| data_err(data_path, message);
+    let io = |e: std::io::Error| DemError::Io {
+        path: data_path.to_path_buf(),
+        source: e,
+    };
+    // A header left from an earlier write must not describe a half-written file.
+    if header_path.exists() {
+        std::fs::remove_file(header_path).map_err(|e| DemError::Io {
+            path: header_path.to_path_buf(),
             source: e,
-        };
-        // A header left from an earlier write must not describe a half-written file.
-        if header_path.exists() {
-            std::fs::remove_file(&header_path).map_err(|e| DemError::Io {
-                path: header_path.clone(),
-                source: e,
-            })?;
-        }
-        let file = std::fs::File::create(&data_path).map_err(io)?;
-        let mut out = BufWriter::with_capacity(1 << 20, file);
-        let mut buf: Vec<u8> = Vec::with_capacity(grid.cols * st.bytes());
-        let mut count = 0usize;
-        for row in rows {
-            let row = row.as_ref();
-            if count >= grid.rows {
-                return Err(fail(format!(
-                    "more than NROWS {} rows were given",
-                    grid.rows
-                )));
-            }
-            if row.len() != grid.cols {
-                return Err(fail(format!(
-                    "row {count} has {} values; expected NCOLS {}",
-                    row.len(),
-                    grid.cols
-                )));
-            }
-            buf.clear();
-            for (col, &v) in row.iter().enumerate() {
-                let stored = if v.is_nan() {
-                    options.nodata.ok_or_else(|| {
-                        fail(format!(
-                            "row {count}, column {col} is NaN (no data) but no NODATA value was \
-                             given"
-                        ))
-                    })?
-                } else if v.is_infinite() {
-                    return Err(fail(format!(
-                        "row {count}, column {col} is {v}; expected finite heights"
-                    )));
-                } else {
-                    let x = match range {
-                        Some(_) => (v as f64).round(),
-                        None => v as f64,
-                    };
-                    if let Some((lo, hi)) = range
-                        && !(x >= lo as f64 && x <= hi as f64)
-                    {
-                        return Err(fail(format!(
-                            "row {count}, column {col}: {v} does not fit {} ({lo}…{hi})",
-                            st.describe()
-                        )));
-                    }
-                    if options.nodata == Some(x) {
-                        return Err(fail(format!(
-                            "row {count}, column {col}: {v} would read back as NODATA {x}"
-                        )));
-                    }
-                    x
-                };
-                push_sample(&mut buf, st, options.byte_order, stored);
-            }
-            out.write_all(&buf).map_err(io)?;
-            count += 1;
-        }
-        if count != grid.rows {
+        })?;
+    }
+    let file = std::fs::File::create(data_path).map_err(io)?;
+    let mut out = BufWriter::with_capacity(1 << 20, file);
+    let mut buf: Vec<u8> = Vec::with_capacity(grid.cols * options.sample_type.bytes());
+    let mut count = 0usize;
+    for row in rows {
+        let row = row.as_ref();
+        if count >= grid.rows {
             return Err(fail(format!(
-                "{count} rows were given; expected NROWS {}",
+                "more than NROWS {} rows were given",
                 grid.rows
             )));
         }
-        out.flush().map_err(io)?;
-        std::fs::write(&header_path, header_text(grid, options)).map_err(|e| DemError::Io {
-            path: header_path.clone(),
-            source: e,
-        })
-    })();
-    match result {
-        Ok(()) => Ok(EhdrWritten {
-            header_path,
-            data_path,
-        }),
-        Err(e) => {
-            let _ = std::fs::remove_file(&data_path);
-            let _ = std::fs::remove_file(&header_path);
-            Err(e)
+        if row.len() != grid.cols {
+            return Err(fail(format!(
+                "row {count} has {} values; expected NCOLS {}",
+                row.len(),
+                grid.cols
+            )));
         }
+        buf.clear();
+        for (col, &v) in row.iter().enumerate() {
+            let stored = stored_value(v, count, col, options, data_path)?;
+            push_sample(&mut buf, options.sample_type, options.byte_order, stored);
+        }
+        out.write_all(&buf).map_err(io)?;
+        count += 1;
     }
+    if count != grid.rows {
+        return Err(fail(format!(
+            "{count} rows were given; expected NROWS {}",
+            grid.rows
+        )));
+    }
+    out.flush().map_err(io)?;
+    std::fs::write(header_path, header_text(grid, options)).map_err(|e| DemError::Io {
+        path: header_path.to_path_buf(),
+        source: e,
+    })
+}
+
+/// The value stored for height `v` at (`row`, `col`): NODATA for NaN, rounded for integer
+/// types; an error for ±inf, a NaN without NODATA, a value out of the type's range, or one
+/// that would read back as NODATA.
+fn stored_value(
+    v: f32,
+    row: usize,
+    col: usize,
+    options: &EhdrWriteOptions,
+    data_path: &Path,
+) -> Result<f64, DemError> {
+    let fail = |message: String| data_err(data_path, message);
+    if v.is_nan() {
+        return options.nodata.ok_or_else(|| {
+            fail(format!(
+                "row {row}, column {col} is NaN (no data) but no NODATA value was given"
+            ))
+        });
+    }
+    if v.is_infinite() {
+        return Err(fail(format!(
+            "row {row}, column {col} is {v}; expected finite heights"
+        )));
+    }
+    let range = options.sample_type.int_range();
+    let x = match range {
+        Some(_) => (v as f64).round(),
+        None => v as f64,
+    };
+    if let Some((lo, hi)) = range
+        && !(x >= lo as f64 && x <= hi as f64)
+    {
+        return Err(fail(format!(
+            "row {row}, column {col}: {v} does not fit {} ({lo}…{hi})",
+            options.sample_type.describe()
+        )));
+    }
+    if options.nodata == Some(x) {
+        return Err(fail(format!(
+            "row {row}, column {col}: {v} would read back as NODATA {x}"
+        )));
+    }
+    Ok(x)
 }

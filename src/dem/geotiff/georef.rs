@@ -147,10 +147,53 @@ pub(crate) fn georeference(
     path: &Path,
 ) -> Result<Georeference, DemError> {
     let keys = geo_keys(b, ifd, path)?;
-    let model = short(&keys, GT_MODEL_TYPE);
-    let projected = short(&keys, PROJECTED_CS_TYPE);
+    let crs = geographic_crs(&keys, path)?;
+    let pixel_is_point = raster_type_is_point(&keys, path)?;
+    // (x of raster (0, 0), degrees per column, y of raster (0, 0), degrees per row southward),
+    // raster (0, 0) being the upper-left pixel's corner (area) or centre (point).
+    let (x0, dx, y0, dy) = if let Some(m) = ifd.doubles(b, MODEL_TRANSFORMATION, path)? {
+        from_transformation(&m, path)?
+    } else {
+        from_scale_and_tiepoint(b, ifd, path)?
+    };
+    let field = if ifd.has(MODEL_TRANSFORMATION) {
+        "ModelTransformation"
+    } else {
+        "ModelPixelScale"
+    };
+    if !(dx.is_finite() && dx > 0.0 && dy.is_finite() && dy > 0.0) {
+        return Err(err(
+            path,
+            field,
+            format!(
+                "pixel size {dx} × {dy}; expected positive degrees, rows running north to south"
+            ),
+        ));
+    }
+    let half = if pixel_is_point { 0.0 } else { 0.5 };
+    let grid = GeoGrid {
+        cols,
+        rows,
+        lon0_deg: x0 + half * dx,
+        lat0_deg: y0 - half * dy,
+        dlon_deg: dx,
+        dlat_deg: dy,
+    };
+    check_on_globe(&grid, field, &crs, path)?;
+    Ok(Georeference {
+        grid,
+        pixel_is_point,
+        crs,
+    })
+}
+
+/// The CRS's name, refusing a projected or geocentric model and angular units other than
+/// degrees. No CRS at all is accepted (and named so): see the module documentation.
+fn geographic_crs(keys: &BTreeMap<u16, KeyValue>, path: &Path) -> Result<String, DemError> {
+    let model = short(keys, GT_MODEL_TYPE);
+    let projected = short(keys, PROJECTED_CS_TYPE);
     if model == Some(1) || projected.is_some() {
-        let citation = text(&keys, PCS_CITATION).or_else(|| text(&keys, GT_CITATION));
+        let citation = text(keys, PCS_CITATION).or_else(|| text(keys, GT_CITATION));
         return Err(err(
             path,
             "ProjectedCSTypeGeoKey",
@@ -177,12 +220,9 @@ pub(crate) fn georeference(
             format!("{m}; expected 2 (geographic latitude/longitude)"),
         ));
     }
-    let geographic = short(&keys, GEOGRAPHIC_TYPE);
-    // No CRS at all (GDAL writes none for a source without one, such as ETOPO5's netCDF): taken
-    // as latitude/longitude, as EHdr grids are, if the grid passes the geographic checks below.
-    let unknown_crs = model.is_none() && geographic.is_none();
+    let geographic = short(keys, GEOGRAPHIC_TYPE);
     // Degrees: 9102 (EPSG "degree") or 9122 ("degree (supplier to define representation)").
-    if let Some(u) = short(&keys, GEOG_ANGULAR_UNITS)
+    if let Some(u) = short(keys, GEOG_ANGULAR_UNITS)
         && u != 9102
         && u != 9122
     {
@@ -192,110 +232,104 @@ pub(crate) fn georeference(
             format!("EPSG unit {u}; expected degrees (9102)"),
         ));
     }
-    let pixel_is_point = match short(&keys, GT_RASTER_TYPE) {
-        None | Some(1) => false,
-        Some(2) => true,
-        Some(other) => {
-            return Err(err(
-                path,
-                "GTRasterTypeGeoKey",
-                format!("{other}; expected 1 (PixelIsArea) or 2 (PixelIsPoint)"),
-            ));
-        }
-    };
-    let crs = if unknown_crs {
-        "no CRS given (taken as latitude/longitude)".to_string()
-    } else {
-        crs_name(
-            geographic,
-            text(&keys, GEOG_CITATION).or_else(|| text(&keys, GT_CITATION)),
-        )
-    };
+    // No CRS at all (GDAL writes none for a source without one, such as ETOPO5's netCDF): taken
+    // as latitude/longitude, as EHdr grids are, if the grid passes the geographic checks.
+    if model.is_none() && geographic.is_none() {
+        return Ok("no CRS given (taken as latitude/longitude)".to_string());
+    }
+    Ok(crs_name(
+        geographic,
+        text(keys, GEOG_CITATION).or_else(|| text(keys, GT_CITATION)),
+    ))
+}
 
-    // (x of raster (0, 0), degrees per column, y of raster (0, 0), degrees per row southward),
-    // raster (0, 0) being the upper-left pixel's corner (area) or centre (point).
-    let (x0, dx, y0, dy) = if let Some(m) = ifd.doubles(b, MODEL_TRANSFORMATION, path)? {
-        if m.len() != 16 {
-            return Err(err(
-                path,
-                "ModelTransformation",
-                format!("{} values; expected 16 (a 4 × 4 matrix)", m.len()),
-            ));
-        }
-        if m[1] != 0.0 || m[4] != 0.0 {
-            return Err(err(
-                path,
-                "ModelTransformation",
-                format!(
-                    "rotated or sheared (terms {} and {}); expected a north-up grid without \
-                     rotation (gdalwarp it to one)",
-                    m[1], m[4]
-                ),
-            ));
-        }
-        (m[3], m[0], m[7], -m[5])
-    } else {
-        let scale = ifd.doubles(b, MODEL_PIXEL_SCALE, path)?;
-        let tie = ifd.doubles(b, MODEL_TIEPOINT, path)?;
-        let (Some(scale), Some(tie)) = (scale, tie) else {
-            return Err(err(
-                path,
-                "ModelPixelScale",
-                "absent (with ModelTiepoint), and no ModelTransformation: the raster is not \
-                 georeferenced; expected a GeoTIFF"
-                    .into(),
-            ));
-        };
-        if scale.len() < 2 {
-            return Err(err(
-                path,
-                "ModelPixelScale",
-                format!("{} values; expected 3 (x, y, z)", scale.len()),
-            ));
-        }
-        if tie.len() != 6 {
-            return Err(err(
-                path,
-                "ModelTiepoint",
-                format!(
-                    "{} values; expected one tiepoint of 6 (ground control points are not \
-                     supported: gdalwarp the file to a regular grid)",
-                    tie.len()
-                ),
-            ));
-        }
-        (
-            tie[3] - tie[0] * scale[0],
-            scale[0],
-            tie[4] + tie[1] * scale[1],
-            scale[1],
-        )
-    };
-    let field = if ifd.has(MODEL_TRANSFORMATION) {
-        "ModelTransformation"
-    } else {
-        "ModelPixelScale"
-    };
-    if !(dx.is_finite() && dx > 0.0 && dy.is_finite() && dy > 0.0) {
+/// GTRasterTypeGeoKey: whether the tiepoint names a pixel centre (PixelIsPoint) rather than
+/// its corner (PixelIsArea, the default).
+fn raster_type_is_point(keys: &BTreeMap<u16, KeyValue>, path: &Path) -> Result<bool, DemError> {
+    match short(keys, GT_RASTER_TYPE) {
+        None | Some(1) => Ok(false),
+        Some(2) => Ok(true),
+        Some(other) => Err(err(
+            path,
+            "GTRasterTypeGeoKey",
+            format!("{other}; expected 1 (PixelIsArea) or 2 (PixelIsPoint)"),
+        )),
+    }
+}
+
+/// (x0, dx, y0, dy) from a ModelTransformation, which must be a 4 × 4 matrix without rotation
+/// or shear.
+fn from_transformation(m: &[f64], path: &Path) -> Result<(f64, f64, f64, f64), DemError> {
+    if m.len() != 16 {
         return Err(err(
             path,
-            field,
+            "ModelTransformation",
+            format!("{} values; expected 16 (a 4 × 4 matrix)", m.len()),
+        ));
+    }
+    if m[1] != 0.0 || m[4] != 0.0 {
+        return Err(err(
+            path,
+            "ModelTransformation",
             format!(
-                "pixel size {dx} × {dy}; expected positive degrees, rows running north to south"
+                "rotated or sheared (terms {} and {}); expected a north-up grid without \
+                 rotation (gdalwarp it to one)",
+                m[1], m[4]
             ),
         ));
     }
-    let half = if pixel_is_point { 0.0 } else { 0.5 };
-    let grid = GeoGrid {
-        cols,
-        rows,
-        lon0_deg: x0 + half * dx,
-        lat0_deg: y0 - half * dy,
-        dlon_deg: dx,
-        dlat_deg: dy,
+    Ok((m[3], m[0], m[7], -m[5]))
+}
+
+/// (x0, dx, y0, dy) from ModelPixelScale and one ModelTiepoint, both required when there is no
+/// ModelTransformation.
+fn from_scale_and_tiepoint(
+    b: &[u8],
+    ifd: &Ifd,
+    path: &Path,
+) -> Result<(f64, f64, f64, f64), DemError> {
+    let scale = ifd.doubles(b, MODEL_PIXEL_SCALE, path)?;
+    let tie = ifd.doubles(b, MODEL_TIEPOINT, path)?;
+    let (Some(scale), Some(tie)) = (scale, tie) else {
+        return Err(err(
+            path,
+            "ModelPixelScale",
+            "absent (with ModelTiepoint), and no ModelTransformation: the raster is not \
+             georeferenced; expected a GeoTIFF"
+                .into(),
+        ));
     };
+    if scale.len() < 2 {
+        return Err(err(
+            path,
+            "ModelPixelScale",
+            format!("{} values; expected 3 (x, y, z)", scale.len()),
+        ));
+    }
+    if tie.len() != 6 {
+        return Err(err(
+            path,
+            "ModelTiepoint",
+            format!(
+                "{} values; expected one tiepoint of 6 (ground control points are not \
+                 supported: gdalwarp the file to a regular grid)",
+                tie.len()
+            ),
+        ));
+    }
+    Ok((
+        tie[3] - tie[0] * scale[0],
+        scale[0],
+        tie[4] + tie[1] * scale[1],
+        scale[1],
+    ))
+}
+
+/// Refuses a grid that cannot be latitude/longitude in degrees: pixel centres beyond the poles,
+/// more than 360° wide, or starting beyond ±360°. `field` names the tag that placed it.
+fn check_on_globe(grid: &GeoGrid, field: &str, crs: &str, path: &Path) -> Result<(), DemError> {
     let north = grid.lat0_deg;
-    let south = grid.lat_of_row(rows as f64 - 1.0);
+    let south = grid.lat_of_row(grid.rows as f64 - 1.0);
     if !(north <= 90.0 + GEO_TOLERANCE_DEG && south >= -90.0 - GEO_TOLERANCE_DEG) {
         return Err(err(
             path,
@@ -306,6 +340,7 @@ pub(crate) fn georeference(
             ),
         ));
     }
+    let (cols, dx) = (grid.cols, grid.dlon_deg);
     let width = cols as f64 * dx;
     if width > 360.0 + GEO_TOLERANCE_DEG {
         return Err(err(
@@ -324,9 +359,5 @@ pub(crate) fn georeference(
             ),
         ));
     }
-    Ok(Georeference {
-        grid,
-        pixel_is_point,
-        crs,
-    })
+    Ok(())
 }

@@ -85,6 +85,28 @@ fn truncated(path: &Path, actual: usize, expected: u64, what: String) -> DemErro
     }
 }
 
+/// The byte order from the first two bytes: `true` for little-endian (`II`).
+fn byte_order(b: &[u8], path: &Path) -> Result<bool, DemError> {
+    match &b[0..2] {
+        b"II" => Ok(true),
+        b"MM" => Ok(false),
+        other => Err(header_err(
+            path,
+            "byte order",
+            format!("{other:?} is not a TIFF byte-order mark; expected \"II\" or \"MM\""),
+        )),
+    }
+}
+
+/// What a TIFF or BigTIFF header says of the first IFD: its offset, and the bytes of one
+/// entry, of the entry count and of an offset (the value field).
+struct Shape {
+    first: u64,
+    entry_len: usize,
+    count_len: usize,
+    offset_len: usize,
+}
+
 impl Ifd {
     /// Parses the header and the first IFD of `b`, checking every value's extent against the
     /// file's length.
@@ -97,55 +119,14 @@ impl Ifd {
                 "the TIFF header (8 bytes)".into(),
             ));
         }
-        let little_endian = match &b[0..2] {
-            b"II" => true,
-            b"MM" => false,
-            other => {
-                return Err(header_err(
-                    path,
-                    "byte order",
-                    format!("{other:?} is not a TIFF byte-order mark; expected \"II\" or \"MM\""),
-                ));
-            }
-        };
         let mut ifd = Ifd {
-            little_endian,
+            little_endian: byte_order(b, path)?,
             bigtiff: false,
             next: 0,
             entries: BTreeMap::new(),
         };
-        let magic = ifd.u16_at(b, 2);
-        let (first, entry_len, count_len, offset_len) = match magic {
-            42 => (ifd.u32_at(b, 4) as u64, 12usize, 2usize, 4usize),
-            43 => {
-                if b.len() < 16 {
-                    return Err(truncated(
-                        path,
-                        b.len(),
-                        16,
-                        "the BigTIFF header (16 bytes)".into(),
-                    ));
-                }
-                if ifd.u16_at(b, 4) != 8 || ifd.u16_at(b, 6) != 0 {
-                    return Err(header_err(
-                        path,
-                        "BigTIFF header",
-                        "offset size is not 8; expected 8 and 0 after the magic 43".into(),
-                    ));
-                }
-                ifd.bigtiff = true;
-                (ifd.u64_at(b, 8), 20, 8, 8)
-            }
-            other => {
-                return Err(header_err(
-                    path,
-                    "magic",
-                    format!(
-                        "{other} is not a TIFF magic number; expected 42 (TIFF) or 43 (BigTIFF)"
-                    ),
-                ));
-            }
-        };
+        let shape = ifd.read_header(b, path)?;
+        let (first, count_len) = (shape.first, shape.count_len);
         let len = b.len() as u64;
         if first < 8 || first.saturating_add(count_len as u64) > len {
             return Err(truncated(
@@ -162,7 +143,7 @@ impl Ifd {
             ifd.u64_at(b, at)
         };
         let table_end = n
-            .checked_mul(entry_len as u64)
+            .checked_mul(shape.entry_len as u64)
             .and_then(|t| t.checked_add(first + count_len as u64))
             .unwrap_or(u64::MAX);
         if table_end > len {
@@ -174,7 +155,7 @@ impl Ifd {
             ));
         }
         // The pointer to the next IFD follows the table; a file may end without it.
-        if table_end + offset_len as u64 <= len {
+        if table_end + shape.offset_len as u64 <= len {
             let next_at = table_end as usize;
             ifd.next = if ifd.bigtiff {
                 ifd.u64_at(b, next_at)
@@ -183,40 +164,97 @@ impl Ifd {
             };
         }
         for k in 0..n as usize {
-            let e = at + count_len + k * entry_len;
-            let tag = ifd.u16_at(b, e);
-            let typ = ifd.u16_at(b, e + 2);
-            let (count, value_at) = if ifd.bigtiff {
-                (ifd.u64_at(b, e + 4), e + 12)
-            } else {
-                (ifd.u32_at(b, e + 4) as u64, e + 8)
-            };
-            let Some(size) = type_size(typ) else {
-                continue; // an unknown type: TIFF readers skip such entries
-            };
-            let total = count.saturating_mul(size);
-            let bytes = if total <= offset_len as u64 {
-                value_at..value_at + total as usize
-            } else {
-                let offset = if ifd.bigtiff {
-                    ifd.u64_at(b, value_at)
-                } else {
-                    ifd.u32_at(b, value_at) as u64
-                };
-                let end = offset.saturating_add(total);
-                if end > len {
+            let e = at + count_len + k * shape.entry_len;
+            if let Some((tag, entry)) = ifd.entry_at(b, e, shape.offset_len, path)? {
+                ifd.entries.insert(tag, entry);
+            }
+        }
+        Ok(ifd)
+    }
+
+    /// Reads the magic number (42: TIFF, 43: BigTIFF, setting `bigtiff`) and what follows it:
+    /// where the first IFD is and the sizes of its fields.
+    fn read_header(&mut self, b: &[u8], path: &Path) -> Result<Shape, DemError> {
+        match self.u16_at(b, 2) {
+            42 => Ok(Shape {
+                first: self.u32_at(b, 4) as u64,
+                entry_len: 12,
+                count_len: 2,
+                offset_len: 4,
+            }),
+            43 => {
+                if b.len() < 16 {
                     return Err(truncated(
                         path,
                         b.len(),
-                        end,
-                        format!("the {count} values of {} at offset {offset}", tag_name(tag)),
+                        16,
+                        "the BigTIFF header (16 bytes)".into(),
                     ));
                 }
-                offset as usize..end as usize
-            };
-            ifd.entries.insert(tag, Entry { typ, count, bytes });
+                if self.u16_at(b, 4) != 8 || self.u16_at(b, 6) != 0 {
+                    return Err(header_err(
+                        path,
+                        "BigTIFF header",
+                        "offset size is not 8; expected 8 and 0 after the magic 43".into(),
+                    ));
+                }
+                self.bigtiff = true;
+                Ok(Shape {
+                    first: self.u64_at(b, 8),
+                    entry_len: 20,
+                    count_len: 8,
+                    offset_len: 8,
+                })
+            }
+            other => Err(header_err(
+                path,
+                "magic",
+                format!("{other} is not a TIFF magic number; expected 42 (TIFF) or 43 (BigTIFF)"),
+            )),
         }
-        Ok(ifd)
+    }
+
+    /// The entry at byte `e` of the table as (tag, entry), its value's extent checked against
+    /// the file (values of at most `offset_len` bytes are stored in the entry itself); `None`
+    /// for a type TIFF does not define, which readers skip.
+    fn entry_at(
+        &self,
+        b: &[u8],
+        e: usize,
+        offset_len: usize,
+        path: &Path,
+    ) -> Result<Option<(u16, Entry)>, DemError> {
+        let tag = self.u16_at(b, e);
+        let typ = self.u16_at(b, e + 2);
+        let (count, value_at) = if self.bigtiff {
+            (self.u64_at(b, e + 4), e + 12)
+        } else {
+            (self.u32_at(b, e + 4) as u64, e + 8)
+        };
+        let Some(size) = type_size(typ) else {
+            return Ok(None);
+        };
+        let total = count.saturating_mul(size);
+        let bytes = if total <= offset_len as u64 {
+            value_at..value_at + total as usize
+        } else {
+            let offset = if self.bigtiff {
+                self.u64_at(b, value_at)
+            } else {
+                self.u32_at(b, value_at) as u64
+            };
+            let end = offset.saturating_add(total);
+            if end > b.len() as u64 {
+                return Err(truncated(
+                    path,
+                    b.len(),
+                    end,
+                    format!("the {count} values of {} at offset {offset}", tag_name(tag)),
+                ));
+            }
+            offset as usize..end as usize
+        };
+        Ok(Some((tag, Entry { typ, count, bytes })))
     }
 
     fn u16_at(&self, b: &[u8], at: usize) -> u16 {

@@ -8,11 +8,11 @@ use std::time::{Duration, Instant};
 
 use super::filter::{Downsampler, Level0, Row};
 use super::format::{
-    self, CODE_MAX, CODE_MIN, Encoding, Header, LevelGeom, MAX_DESCRIPTION, MAX_TILE_SIZE,
+    self, CODE_MAX, CODE_MIN, Encoding, Extents, Header, LevelGeom, MAX_DESCRIPTION, MAX_TILE_SIZE,
     MIN_TILE_SIZE, TileEntry,
 };
 use crate::dem::DemError;
-use crate::dem::raster::RasterSource;
+use crate::dem::raster::{GeoGrid, RasterSource};
 
 /// The default tile edge, in samples: 256 × 256 × 3 planes × 2 bytes = 384 KiB per tile.
 pub const DEFAULT_TILE_SIZE: usize = 256;
@@ -154,130 +154,20 @@ impl<'p> PyramidBuilder<'p> {
         let start = Instant::now();
         let grid = source.grid();
         let src_name = PathBuf::from(source.describe());
-        format::check_source_grid(&grid).map_err(|message| DemError::Header {
-            path: src_name.clone(),
-            field: "grid".into(),
-            message,
-        })?;
+        self.check_request(&grid, &src_name)?;
         let t = self.tile_size;
-        if !(MIN_TILE_SIZE..=MAX_TILE_SIZE).contains(&t) {
-            return Err(DemError::Other(format!(
-                "tile size {t}: expected {MIN_TILE_SIZE} … {MAX_TILE_SIZE}"
-            )));
-        }
         let enc = self.encoding;
-        if !(enc.quantum_m.is_finite() && enc.quantum_m > 0.0 && enc.offset_m.is_finite()) {
-            return Err(DemError::Other(format!(
-                "height encoding quantum {} m, offset {} m: expected a finite quantum > 0",
-                enc.quantum_m, enc.offset_m
-            )));
-        }
         let wraps = grid.wraps_in_longitude();
         let extents = format::extents_of(&grid);
         let levels = format::level_geoms(&grid, t);
-        let mut description = source.describe();
-        if description.len() > MAX_DESCRIPTION {
-            let mut cut = MAX_DESCRIPTION;
-            while !description.is_char_boundary(cut) {
-                cut -= 1;
-            }
-            description.truncate(cut);
-        }
+        let description = header_description(source);
         let lay = format::layout(&levels, t, description.len());
-        let index: Vec<TileEntry> = (0..lay.tile_count)
-            .map(|i| TileEntry {
-                offset: lay.tile_data_offset + i as u64 * lay.tile_bytes,
-                len: lay.tile_bytes as u32,
-                crc32: 0,
-            })
-            .collect();
+        let mut sink = Sink::create(partial, &lay)?;
+        let mut stages = cascade(&levels, t, extents, wraps);
+        let buffer_bytes = buffer_bytes(&stages, &lay, grid.cols);
 
-        let io = |source| DemError::Io {
-            path: partial.to_path_buf(),
-            source,
-        };
-        let file = File::create(partial).map_err(io)?;
-        file.set_len(lay.file_len).map_err(io)?;
-        let mut sink = Sink {
-            file,
-            path: partial.to_path_buf(),
-            written: vec![false; lay.tile_count],
-            index,
-            first_tile: lay.first_tile.clone(),
-            tile_buf: vec![0; lay.tile_bytes as usize],
-            min_code: i32::MAX,
-            max_code: i32::MIN,
-        };
-        let mut stages: Vec<Stage> = levels
-            .iter()
-            .enumerate()
-            .map(|(i, g)| Stage {
-                writer: LevelWriter::new(i, *g, t),
-                down: levels
-                    .get(i + 1)
-                    .map(|c| Downsampler::new(*g, *c, extents, wraps)),
-            })
-            .collect();
-        let buffer_bytes = stages
-            .iter()
-            .map(|s| s.writer.buffer_bytes() + s.down.as_ref().map_or(0, |d| d.buffer_bytes()))
-            .sum::<usize>()
-            + lay.tile_bytes as usize
-            + 16 * lay.tile_count
-            + 9 * 4 * grid.cols;
-
-        // One pass over the source.
-        let mut level0 = Level0::new(wraps);
-        let mut nan_count = 0u64;
-        let (lo_m, hi_m) = enc.range_m();
-        let mut last_report = Instant::now();
-        let mut emitted = 0usize;
-        for r in 0..grid.rows {
-            let mut values = vec![0.0f32; grid.cols];
-            source.read_row(r, &mut values)?;
-            for (c, v) in values.iter_mut().enumerate() {
-                if v.is_nan() {
-                    if self.nan_policy == NanPolicy::Reject {
-                        return Err(DemError::Data {
-                            path: src_name.clone(),
-                            message: format!(
-                                "row {r}, column {c} (lat {:.6}°, lon {:.6}°): no data (NaN), and the NaN policy is Reject",
-                                grid.lat_of_row(r as f64),
-                                grid.lon_of_col(c as f64)
-                            ),
-                        });
-                    }
-                    nan_count += 1;
-                    *v = 0.0;
-                } else if !(v.is_finite() && (*v as f64) >= lo_m && (*v as f64) <= hi_m) {
-                    return Err(DemError::Data {
-                        path: src_name.clone(),
-                        message: format!(
-                            "row {r}, column {c} (lat {:.6}°, lon {:.6}°): height {v} m is outside what the encoding holds ({lo_m} … {hi_m} m at {} m per step; choose a coarser quantum)",
-                            grid.lat_of_row(r as f64),
-                            grid.lon_of_col(c as f64),
-                            enc.quantum_m
-                        ),
-                    });
-                }
-            }
-            if let Some(row) = level0.push(values) {
-                feed(&mut stages, emitted, row, &mut sink, &enc)?;
-                emitted += 1;
-            }
-            if let Some(cb) = self.progress.as_mut() {
-                let now = Instant::now();
-                if now.duration_since(last_report) >= Duration::from_millis(100)
-                    && r + 1 < grid.rows
-                {
-                    last_report = now;
-                    cb(&progress(r + 1, grid.rows, start.elapsed()));
-                }
-            }
-        }
-        if let Some(row) = level0.finish() {
-            feed(&mut stages, emitted, row, &mut sink, &enc)?;
-        }
+        let nan_count =
+            self.stream_source(source, &grid, &src_name, &mut stages, &mut sink, start)?;
         if let Some(bad) = sink.written.iter().position(|w| !w) {
             let (level, tx, ty) = format::tile_position(&levels, &lay.first_tile, bad);
             return Err(DemError::Other(format!(
@@ -307,10 +197,7 @@ impl<'p> PyramidBuilder<'p> {
         };
         let bytes = header.encode();
         debug_assert_eq!(bytes.len(), lay.header_len);
-        sink.file.seek(SeekFrom::Start(0)).map_err(io)?;
-        sink.file.write_all(&bytes).map_err(io)?;
-        sink.file.sync_all().map_err(io)?;
-        drop(sink);
+        sink.finish(&bytes)?;
         std::fs::rename(partial, out).map_err(|source| DemError::Io {
             path: out.to_path_buf(),
             source,
@@ -335,6 +222,127 @@ impl<'p> PyramidBuilder<'p> {
             full_circle_passes,
         })
     }
+
+    /// Refuses, before any file is created, a source grid the format cannot hold, a tile size
+    /// out of range and a height encoding that is not finite and positive (in that order).
+    fn check_request(&self, grid: &GeoGrid, src_name: &Path) -> Result<(), DemError> {
+        format::check_source_grid(grid).map_err(|message| DemError::Header {
+            path: src_name.to_path_buf(),
+            field: "grid".into(),
+            message,
+        })?;
+        let t = self.tile_size;
+        if !(MIN_TILE_SIZE..=MAX_TILE_SIZE).contains(&t) {
+            return Err(DemError::Other(format!(
+                "tile size {t}: expected {MIN_TILE_SIZE} … {MAX_TILE_SIZE}"
+            )));
+        }
+        let enc = self.encoding;
+        if !(enc.quantum_m.is_finite() && enc.quantum_m > 0.0 && enc.offset_m.is_finite()) {
+            return Err(DemError::Other(format!(
+                "height encoding quantum {} m, offset {} m: expected a finite quantum > 0",
+                enc.quantum_m, enc.offset_m
+            )));
+        }
+        Ok(())
+    }
+
+    /// The one pass over the source: every row read, checked ([`Self::check_row`]), and fed
+    /// through level 0's filter into the cascade of levels, with progress reports on the way.
+    /// Returns how many NaN pixels were replaced.
+    fn stream_source(
+        &mut self,
+        source: &dyn RasterSource,
+        grid: &GeoGrid,
+        src_name: &Path,
+        stages: &mut [Stage],
+        sink: &mut Sink,
+        start: Instant,
+    ) -> Result<u64, DemError> {
+        let enc = self.encoding;
+        let mut level0 = Level0::new(grid.wraps_in_longitude());
+        let mut nan_count = 0u64;
+        let range_m = enc.range_m();
+        let mut last_report = Instant::now();
+        let mut emitted = 0usize;
+        for r in 0..grid.rows {
+            let mut values = vec![0.0f32; grid.cols];
+            source.read_row(r, &mut values)?;
+            nan_count += self.check_row(&mut values, r, grid, src_name, range_m)?;
+            if let Some(row) = level0.push(values) {
+                feed(stages, emitted, row, sink, &enc)?;
+                emitted += 1;
+            }
+            if let Some(cb) = self.progress.as_mut() {
+                let now = Instant::now();
+                if now.duration_since(last_report) >= Duration::from_millis(100)
+                    && r + 1 < grid.rows
+                {
+                    last_report = now;
+                    cb(&progress(r + 1, grid.rows, start.elapsed()));
+                }
+            }
+        }
+        if let Some(row) = level0.finish() {
+            feed(stages, emitted, row, sink, &enc)?;
+        }
+        Ok(nan_count)
+    }
+
+    /// Source row `r`, checked in column order: NaN becomes 0 m (counted, and returned) or is an
+    /// error under [`NanPolicy::Reject`]; a height outside `range_m`, the encoding's, is an
+    /// error naming the pixel.
+    fn check_row(
+        &self,
+        values: &mut [f32],
+        r: usize,
+        grid: &GeoGrid,
+        src_name: &Path,
+        (lo_m, hi_m): (f64, f64),
+    ) -> Result<u64, DemError> {
+        let mut nan_count = 0u64;
+        for (c, v) in values.iter_mut().enumerate() {
+            if v.is_nan() {
+                if self.nan_policy == NanPolicy::Reject {
+                    return Err(DemError::Data {
+                        path: src_name.to_path_buf(),
+                        message: format!(
+                            "row {r}, column {c} (lat {:.6}°, lon {:.6}°): no data (NaN), and the NaN policy is Reject",
+                            grid.lat_of_row(r as f64),
+                            grid.lon_of_col(c as f64)
+                        ),
+                    });
+                }
+                nan_count += 1;
+                *v = 0.0;
+            } else if !(v.is_finite() && (*v as f64) >= lo_m && (*v as f64) <= hi_m) {
+                return Err(DemError::Data {
+                    path: src_name.to_path_buf(),
+                    message: format!(
+                        "row {r}, column {c} (lat {:.6}°, lon {:.6}°): height {v} m is outside what the encoding holds ({lo_m} … {hi_m} m at {} m per step; choose a coarser quantum)",
+                        grid.lat_of_row(r as f64),
+                        grid.lon_of_col(c as f64),
+                        self.encoding.quantum_m
+                    ),
+                });
+            }
+        }
+        Ok(nan_count)
+    }
+}
+
+/// The source's description as the header stores it: cut to [`MAX_DESCRIPTION`] bytes, at a
+/// character boundary.
+fn header_description(source: &dyn RasterSource) -> String {
+    let mut description = source.describe();
+    if description.len() > MAX_DESCRIPTION {
+        let mut cut = MAX_DESCRIPTION;
+        while !description.is_char_boundary(cut) {
+            cut -= 1;
+        }
+        description.truncate(cut);
+    }
+    description
 }
 
 fn progress(done: usize, total: usize, elapsed: Duration) -> BuildProgress {
@@ -352,6 +360,32 @@ struct Stage {
     writer: LevelWriter,
     /// To the next coarser level (none for the last level).
     down: Option<Downsampler>,
+}
+
+/// One stage per level, each writing its level and (but the last) downsampling to the next.
+fn cascade(levels: &[LevelGeom], t: usize, extents: Extents, wraps: bool) -> Vec<Stage> {
+    levels
+        .iter()
+        .enumerate()
+        .map(|(i, g)| Stage {
+            writer: LevelWriter::new(i, *g, t),
+            down: levels
+                .get(i + 1)
+                .map(|c| Downsampler::new(*g, *c, extents, wraps)),
+        })
+        .collect()
+}
+
+/// The bytes the builder holds at its peak: every stage's buffers, one tile, the tile index
+/// and level 0's rows of `cols` values (the reported memory bound).
+fn buffer_bytes(stages: &[Stage], lay: &format::Layout, cols: usize) -> usize {
+    stages
+        .iter()
+        .map(|s| s.writer.buffer_bytes() + s.down.as_ref().map_or(0, |d| d.buffer_bytes()))
+        .sum::<usize>()
+        + lay.tile_bytes as usize
+        + 16 * lay.tile_count
+        + 9 * 4 * cols
 }
 
 /// Row `r` of a level: store it, and pass it down to the next level.
@@ -388,6 +422,48 @@ struct Sink {
     /// Lowest min code and highest max code of level 0.
     min_code: i32,
     max_code: i32,
+}
+
+impl Sink {
+    /// Creates `path` at the file's full length, with every tile's index entry placed (CRCs
+    /// filled in as tiles are written).
+    fn create(path: &Path, lay: &format::Layout) -> Result<Sink, DemError> {
+        let io = |source| DemError::Io {
+            path: path.to_path_buf(),
+            source,
+        };
+        let index: Vec<TileEntry> = (0..lay.tile_count)
+            .map(|i| TileEntry {
+                offset: lay.tile_data_offset + i as u64 * lay.tile_bytes,
+                len: lay.tile_bytes as u32,
+                crc32: 0,
+            })
+            .collect();
+        let file = File::create(path).map_err(io)?;
+        file.set_len(lay.file_len).map_err(io)?;
+        Ok(Sink {
+            file,
+            path: path.to_path_buf(),
+            written: vec![false; lay.tile_count],
+            index,
+            first_tile: lay.first_tile.clone(),
+            tile_buf: vec![0; lay.tile_bytes as usize],
+            min_code: i32::MAX,
+            max_code: i32::MIN,
+        })
+    }
+
+    /// Writes the encoded header at the start of the file, once every tile is in, and syncs
+    /// the file to disk before the caller renames it into place.
+    fn finish(mut self, header: &[u8]) -> Result<(), DemError> {
+        let io = |source| DemError::Io {
+            path: self.path.clone(),
+            source,
+        };
+        self.file.seek(SeekFrom::Start(0)).map_err(io)?;
+        self.file.write_all(header).map_err(io)?;
+        self.file.sync_all().map_err(io)
+    }
 }
 
 /// One band (tile height) of quantised rows of a level, flushed as a row of tiles.
