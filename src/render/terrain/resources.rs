@@ -76,52 +76,24 @@ pub(super) struct LevelTextures {
 
 impl LevelTextures {
     pub(super) fn new(device: &wgpu::Device, settings: &ClipmapSettings) -> Self {
-        let heights = device.create_texture(&wgpu::TextureDescriptor {
-            label: Some("clipmap heights"),
-            size: wgpu::Extent3d {
-                width: settings.texture_size,
-                height: settings.texture_size,
-                depth_or_array_layers: settings.levels,
-            },
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format: wgpu::TextureFormat::R32Float,
-            usage: wgpu::TextureUsages::TEXTURE_BINDING
-                | wgpu::TextureUsages::STORAGE_BINDING
-                | wgpu::TextureUsages::COPY_DST
-                | wgpu::TextureUsages::COPY_SRC,
-            view_formats: &[],
-        });
-        let heights_view = heights.create_view(&wgpu::TextureViewDescriptor {
-            dimension: Some(wgpu::TextureViewDimension::D2Array),
-            ..Default::default()
-        });
+        let heights = level_array(
+            device,
+            settings,
+            "clipmap heights",
+            wgpu::TextureFormat::R32Float,
+            wgpu::TextureUsages::COPY_DST,
+        );
+        let heights_view = array_view(&heights);
         let partials = detail::partials_texture(device, settings.texture_size, settings.levels);
-        let partials_view = partials.create_view(&wgpu::TextureViewDescriptor {
-            dimension: Some(wgpu::TextureViewDimension::D2Array),
-            ..Default::default()
-        });
-        let normals = device.create_texture(&wgpu::TextureDescriptor {
-            label: Some("clipmap normals"),
-            size: wgpu::Extent3d {
-                width: settings.texture_size,
-                height: settings.texture_size,
-                depth_or_array_layers: settings.levels,
-            },
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format: NORMAL_FORMAT,
-            usage: wgpu::TextureUsages::TEXTURE_BINDING
-                | wgpu::TextureUsages::STORAGE_BINDING
-                | wgpu::TextureUsages::COPY_SRC,
-            view_formats: &[],
-        });
-        let normals_view = normals.create_view(&wgpu::TextureViewDescriptor {
-            dimension: Some(wgpu::TextureViewDimension::D2Array),
-            ..Default::default()
-        });
+        let partials_view = array_view(&partials);
+        let normals = level_array(
+            device,
+            settings,
+            "clipmap normals",
+            NORMAL_FORMAT,
+            wgpu::TextureUsages::empty(),
+        );
+        let normals_view = array_view(&normals);
         // Bilinear and toroidal: texel (x, y) holds grid point x, y mod S.
         let normal_sampler = device.create_sampler(&wgpu::SamplerDescriptor {
             label: Some("normal sampler"),
@@ -141,6 +113,42 @@ impl LevelTextures {
             normal_sampler,
         }
     }
+}
+
+/// A texture of one `settings.texture_size`² layer per level that compute passes write and
+/// the terrain pass samples (and tests read back), with `extra` usages.
+fn level_array(
+    device: &wgpu::Device,
+    settings: &ClipmapSettings,
+    label: &str,
+    format: wgpu::TextureFormat,
+    extra: wgpu::TextureUsages,
+) -> wgpu::Texture {
+    device.create_texture(&wgpu::TextureDescriptor {
+        label: Some(label),
+        size: wgpu::Extent3d {
+            width: settings.texture_size,
+            height: settings.texture_size,
+            depth_or_array_layers: settings.levels,
+        },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format,
+        usage: wgpu::TextureUsages::TEXTURE_BINDING
+            | wgpu::TextureUsages::STORAGE_BINDING
+            | wgpu::TextureUsages::COPY_SRC
+            | extra,
+        view_formats: &[],
+    })
+}
+
+/// All layers of `texture` as one 2-D array view.
+fn array_view(texture: &wgpu::Texture) -> wgpu::TextureView {
+    texture.create_view(&wgpu::TextureViewDescriptor {
+        dimension: Some(wgpu::TextureViewDimension::D2Array),
+        ..Default::default()
+    })
 }
 
 /// Group 0 of the terrain pass: what every binding holds is `render::contracts`' to check.
