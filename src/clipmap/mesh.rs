@@ -124,129 +124,19 @@ impl RingMesh {
 
         for level in 0..settings.levels {
             let base = vertices.len() as u32;
-            for j in 0..=m {
-                let theta = ring_theta_rad(level, j, m);
-                let ring_t = j as f32 / m as f32;
-                for k in 0..columns {
-                    // Column n+1 is the second copy of the φ̃ = π meridian.
-                    let (step, seam_side) = match k {
-                        0 => (0, 1.0),
-                        k if k == n => (n, -1.0),
-                        k if k == half => (half, 1.0),
-                        k if k == n + 1 => (half, -1.0),
-                        k => (k, 0.0),
-                    };
-                    vertices.push(ring_vertex(theta, step, n, ring_t, level, seam_side));
-                }
-            }
-            // Nadir vertex (θ̃ = 0), the centre of this level's cap.
-            vertices.push(RingVertex {
-                p_tilde: [0.0, 0.0, 1.0],
-                level,
-                ring_t: 1.0,
-                ..Default::default()
-            });
-            let centre = base + per_level - 1;
-
-            // Column of φ̃ step t as seen by triangles of the coarse segment starting at t0:
-            // the π meridian's left copy closes the east half, its right copy opens the west.
-            let column =
-                |t: u32, t0: u32| -> u32 { if t == half && t0 >= half { n + 1 } else { t } };
-            let vid = |j: u32, col: u32| base + j * columns + col;
-            // Triangles of one quad row of one sector: its outer ring j_out at density a,
-            // its inner ring j_in at density b. The coarser ring's segments fan onto the
-            // finer ring's vertices (a plain quad strip when a == b).
-            let row =
-                |indices: &mut Vec<u32>, sector: u32, j_out: u32, a: u32, j_in: u32, b: u32| {
-                    let outer_coarse = a >= b;
-                    let (coarse, fine) = if outer_coarse { (a, b) } else { (b, a) };
-                    let (big, small) = (1u32 << coarse, 1u32 << fine);
-                    let r = big / small;
-                    let (t_start, t_end) = (sector * n / sectors, (sector + 1) * n / sectors);
-                    let mut c0 = t_start;
-                    while c0 < t_end {
-                        let c1 = c0 + big;
-                        let f = |i: u32| column(c0 + i * small, c0);
-                        if outer_coarse {
-                            let (b0, b1) = (vid(j_out, column(c0, c0)), vid(j_out, column(c1, c0)));
-                            let fi = |i: u32| vid(j_in, f(i));
-                            for i in 0..r / 2 {
-                                indices.extend_from_slice(&[b0, fi(i + 1), fi(i)]);
-                            }
-                            indices.extend_from_slice(&[b0, b1, fi(r / 2)]);
-                            for i in r / 2..r {
-                                indices.extend_from_slice(&[b1, fi(i + 1), fi(i)]);
-                            }
-                        } else {
-                            let (b0, b1) = (vid(j_in, column(c0, c0)), vid(j_in, column(c1, c0)));
-                            let fi = |i: u32| vid(j_out, f(i));
-                            for i in 0..r / 2 {
-                                indices.extend_from_slice(&[fi(i), fi(i + 1), b0]);
-                            }
-                            indices.extend_from_slice(&[fi(r / 2), b1, b0]);
-                            for i in r / 2..r {
-                                indices.extend_from_slice(&[fi(i), fi(i + 1), b1]);
-                            }
-                        }
-                        c0 = c1;
-                    }
-                };
-
+            push_level_vertices(&mut vertices, level, n, m);
+            let grid = LevelGrid {
+                base,
+                n,
+                m,
+                half,
+                columns,
+                sectors,
+                centre: base + per_level - 1,
+            };
             let mut per_density = Vec::with_capacity(max_k as usize + 1);
             for k in 0..=max_k {
-                let s = 1u32 << k;
-                let rows = m / s;
-                let mut ranges = LevelRanges::default();
-                // Rows 1..rows−1 (all of them when a level has a single row: then only
-                // density 0 exists and every neighbour shares it).
-                let body_rows = if rows >= 2 { 1..rows - 1 } else { 0..rows };
-                // A row blends when its outer ring does (ring_t < blend fraction, as the
-                // vertex shader's weight clamp(1 − ring_t/b, 0, 1) > 0).
-                let blends = |r: u32| ((r * s) as f32 / m as f32) < settings.blend_fraction;
-                ranges.inner_blends = rows >= 2 && blends(rows - 1);
-                for (want, out) in [(true, &mut ranges.body_blend), (false, &mut ranges.body)] {
-                    for sector in 0..sectors {
-                        let start = indices.len() as u32;
-                        for r in body_rows.clone().filter(|&r| blends(r) == want) {
-                            row(&mut indices, sector, r * s, k, (r + 1) * s, k);
-                        }
-                        out.push(start..indices.len() as u32);
-                    }
-                }
-                for kb in k..=max_k {
-                    let mut outer = Vec::with_capacity(sectors as usize);
-                    let mut inner = Vec::with_capacity(sectors as usize);
-                    for sector in 0..sectors {
-                        let start = indices.len() as u32;
-                        if rows >= 2 {
-                            row(&mut indices, sector, 0, kb, s, k);
-                        }
-                        outer.push(start..indices.len() as u32);
-                    }
-                    for sector in 0..sectors {
-                        let start = indices.len() as u32;
-                        if rows >= 2 {
-                            row(&mut indices, sector, m - s, k, m, kb);
-                        }
-                        inner.push(start..indices.len() as u32);
-                    }
-                    ranges.outer.push(outer);
-                    ranges.inner.push(inner);
-                }
-                for sector in 0..sectors {
-                    let start = indices.len() as u32;
-                    let (t_start, t_end) = (sector * n / sectors, (sector + 1) * n / sectors);
-                    let mut t0 = t_start;
-                    while t0 < t_end {
-                        let t1 = t0 + s;
-                        let c0 = if t0 == half { n + 1 } else { t0 };
-                        let c1 = if t1 == half { half } else { t1 };
-                        indices.extend_from_slice(&[centre, vid(m, c0), vid(m, c1)]);
-                        t0 = t1;
-                    }
-                    ranges.cap.push(start..indices.len() as u32);
-                }
-                per_density.push(ranges);
+                per_density.push(grid.ranges(&mut indices, k, max_k, settings.blend_fraction));
             }
             levels.push(per_density);
         }
@@ -282,6 +172,193 @@ impl RingMesh {
             + count(&r.body_blend)
             + count(&r.outer[(outer - k) as usize])
             + count(&r.inner[(inner - k) as usize])
+    }
+}
+
+/// One level's full-density vertex grid, ring by ring (n + 2 columns: the φ̃ = π meridian
+/// twice, one copy per side of the seam), then its nadir: every density's triangles index
+/// into these same vertices.
+fn push_level_vertices(vertices: &mut Vec<RingVertex>, level: u32, n: u32, m: u32) {
+    let half = n / 2;
+    let columns = n + 2;
+    for j in 0..=m {
+        let theta = ring_theta_rad(level, j, m);
+        let ring_t = j as f32 / m as f32;
+        for k in 0..columns {
+            // Column n+1 is the second copy of the φ̃ = π meridian.
+            let (step, seam_side) = match k {
+                0 => (0, 1.0),
+                k if k == n => (n, -1.0),
+                k if k == half => (half, 1.0),
+                k if k == n + 1 => (half, -1.0),
+                k => (k, 0.0),
+            };
+            vertices.push(ring_vertex(theta, step, n, ring_t, level, seam_side));
+        }
+    }
+    // Nadir vertex (θ̃ = 0), the centre of this level's cap.
+    vertices.push(RingVertex {
+        p_tilde: [0.0, 0.0, 1.0],
+        level,
+        ring_t: 1.0,
+        ..Default::default()
+    });
+}
+
+/// Where one level's vertices lie in the mesh, so that its triangles can name them: `base`
+/// its first vertex, `centre` its nadir.
+struct LevelGrid {
+    base: u32,
+    n: u32,
+    m: u32,
+    half: u32,
+    columns: u32,
+    sectors: u32,
+    centre: u32,
+}
+
+impl LevelGrid {
+    /// Column of φ̃ step t as seen by triangles of the coarse segment starting at t0:
+    /// the π meridian's left copy closes the east half, its right copy opens the west.
+    fn column(&self, t: u32, t0: u32) -> u32 {
+        if t == self.half && t0 >= self.half {
+            self.n + 1
+        } else {
+            t
+        }
+    }
+
+    /// The vertex of ring `j`, column `col`.
+    fn vid(&self, j: u32, col: u32) -> u32 {
+        self.base + j * self.columns + col
+    }
+
+    /// φ̃ steps [start, end) of a sector.
+    fn sector_steps(&self, sector: u32) -> (u32, u32) {
+        let (n, sectors) = (self.n, self.sectors);
+        (sector * n / sectors, (sector + 1) * n / sectors)
+    }
+
+    /// The index ranges of the level at density `k`: its body rows (blending or not), its
+    /// edge rows against every coarser neighbour density `kb`, and its cap, per sector.
+    fn ranges(
+        &self,
+        indices: &mut Vec<u32>,
+        k: u32,
+        max_k: u32,
+        blend_fraction: f32,
+    ) -> LevelRanges {
+        let m = self.m;
+        let sectors = self.sectors;
+        let s = 1u32 << k;
+        let rows = m / s;
+        let mut ranges = LevelRanges::default();
+        // Rows 1..rows−1 (all of them when a level has a single row: then only
+        // density 0 exists and every neighbour shares it).
+        let body_rows = if rows >= 2 { 1..rows - 1 } else { 0..rows };
+        // A row blends when its outer ring does (ring_t < blend fraction, as the
+        // vertex shader's weight clamp(1 − ring_t/b, 0, 1) > 0).
+        let blends = |r: u32| ((r * s) as f32 / m as f32) < blend_fraction;
+        ranges.inner_blends = rows >= 2 && blends(rows - 1);
+        for (want, out) in [(true, &mut ranges.body_blend), (false, &mut ranges.body)] {
+            for sector in 0..sectors {
+                let start = indices.len() as u32;
+                for r in body_rows.clone().filter(|&r| blends(r) == want) {
+                    self.row(indices, sector, (r * s, k), ((r + 1) * s, k));
+                }
+                out.push(start..indices.len() as u32);
+            }
+        }
+        for kb in k..=max_k {
+            let mut outer = Vec::with_capacity(sectors as usize);
+            let mut inner = Vec::with_capacity(sectors as usize);
+            for sector in 0..sectors {
+                let start = indices.len() as u32;
+                if rows >= 2 {
+                    self.row(indices, sector, (0, kb), (s, k));
+                }
+                outer.push(start..indices.len() as u32);
+            }
+            for sector in 0..sectors {
+                let start = indices.len() as u32;
+                if rows >= 2 {
+                    self.row(indices, sector, (m - s, k), (m, kb));
+                }
+                inner.push(start..indices.len() as u32);
+            }
+            ranges.outer.push(outer);
+            ranges.inner.push(inner);
+        }
+        for sector in 0..sectors {
+            let start = indices.len() as u32;
+            self.cap(indices, sector, s);
+            ranges.cap.push(start..indices.len() as u32);
+        }
+        ranges
+    }
+
+    /// Triangles of one quad row of one sector: its outer ring j_out at density a, its inner
+    /// ring j_in at density b. The coarser ring's segments fan onto the finer ring's vertices
+    /// (a plain quad strip when a == b).
+    fn row(
+        &self,
+        indices: &mut Vec<u32>,
+        sector: u32,
+        (j_out, a): (u32, u32),
+        (j_in, b): (u32, u32),
+    ) {
+        let outer_coarse = a >= b;
+        let (coarse, fine) = if outer_coarse { (a, b) } else { (b, a) };
+        let (big, small) = (1u32 << coarse, 1u32 << fine);
+        let r = big / small;
+        let (t_start, t_end) = self.sector_steps(sector);
+        let mut c0 = t_start;
+        while c0 < t_end {
+            let c1 = c0 + big;
+            let f = |i: u32| self.column(c0 + i * small, c0);
+            if outer_coarse {
+                let (b0, b1) = (
+                    self.vid(j_out, self.column(c0, c0)),
+                    self.vid(j_out, self.column(c1, c0)),
+                );
+                let fi = |i: u32| self.vid(j_in, f(i));
+                for i in 0..r / 2 {
+                    indices.extend_from_slice(&[b0, fi(i + 1), fi(i)]);
+                }
+                indices.extend_from_slice(&[b0, b1, fi(r / 2)]);
+                for i in r / 2..r {
+                    indices.extend_from_slice(&[b1, fi(i + 1), fi(i)]);
+                }
+            } else {
+                let (b0, b1) = (
+                    self.vid(j_in, self.column(c0, c0)),
+                    self.vid(j_in, self.column(c1, c0)),
+                );
+                let fi = |i: u32| self.vid(j_out, f(i));
+                for i in 0..r / 2 {
+                    indices.extend_from_slice(&[fi(i), fi(i + 1), b0]);
+                }
+                indices.extend_from_slice(&[fi(r / 2), b1, b0]);
+                for i in r / 2..r {
+                    indices.extend_from_slice(&[fi(i), fi(i + 1), b1]);
+                }
+            }
+            c0 = c1;
+        }
+    }
+
+    /// One sector of the fill cap at stride `s`: a fan from the nadir to the inner ring.
+    fn cap(&self, indices: &mut Vec<u32>, sector: u32, s: u32) {
+        let (n, half, m) = (self.n, self.half, self.m);
+        let (t_start, t_end) = self.sector_steps(sector);
+        let mut t0 = t_start;
+        while t0 < t_end {
+            let t1 = t0 + s;
+            let c0 = if t0 == half { n + 1 } else { t0 };
+            let c1 = if t1 == half { half } else { t1 };
+            indices.extend_from_slice(&[self.centre, self.vid(m, c0), self.vid(m, c1)]);
+            t0 = t1;
+        }
     }
 }
 

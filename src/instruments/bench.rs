@@ -17,7 +17,7 @@ use crate::look::LookSettings;
 use crate::measure::ErrorStats;
 use crate::render::dem_feed::FeedFrame;
 use crate::render::formats::COLOR_FORMAT;
-use crate::render::offscreen::{OffscreenFrame, RenderedFrame, SETTLE_TIMEOUT};
+use crate::render::offscreen::{OffscreenFrame, RenderedFrame, SETTLE_TIMEOUT, TimedFrame};
 use crate::render::timing::GpuTimer;
 use crate::render::{GpuContext, RenderError, TerrainRenderer};
 use crate::scenes::{self, CameraSpec, UnknownScene, flight};
@@ -96,7 +96,7 @@ pub struct FrameRecord {
 }
 
 impl FrameRecord {
-    fn of(f: &crate::render::offscreen::TimedFrame, camera: &Camera) -> Self {
+    fn of(f: &TimedFrame, camera: &Camera) -> Self {
         let sel = &f.info.selection;
         Self {
             cpu_ms: f.cpu_ms,
@@ -222,6 +222,11 @@ pub fn run_with(
     renderer.set_lod(&ctx.device, options.lod);
     let timer = GpuTimer::new(ctx);
     let target = OffscreenFrame::new(&ctx.device, options.width, options.height);
+    let rig = Rig {
+        ctx,
+        target: &target,
+        timer: timer.as_ref(),
+    };
     let ground = |lat: f64, lon: f64| terrain.height_at_lat_lon_m(lat, lon);
     let is_flight = view.is_none();
     let fixed = view.map(|v| v.camera(ground));
@@ -230,11 +235,115 @@ pub fn run_with(
         None => flight::frame_camera(i, options.frames, ground),
     };
     if let Some(camera) = &fixed {
-        renderer.settle_or_explain(ctx, camera, options.width, options.height, SETTLE_TIMEOUT)?;
-        for _ in 0..options.warmup {
-            target.draw_timed(ctx, &mut renderer, camera, timer.as_ref())?;
-        }
+        warm_up(&rig, &mut renderer, camera, options)?;
     }
+    let frames = measured_frames(&rig, &mut renderer, options, camera_of, &mut progress)?;
+    let compared = match &fixed {
+        Some(camera) => compare_still(&rig, &mut renderer, camera, options)?,
+        None => Compared::default(),
+    };
+    let final_camera = camera_of(options.frames.saturating_sub(1));
+    let mut end = if is_flight {
+        settle_after_flight(&rig, &mut renderer, terrain, options, &final_camera)?
+    } else {
+        FlightEnd::default()
+    };
+    let error = if options.measure_error {
+        let (frame, stats) = measure_final(
+            &rig,
+            &mut renderer,
+            terrain,
+            &final_camera,
+            end.final_frame.take(),
+            measure,
+        )?;
+        end.final_frame = Some(frame);
+        Some(stats)
+    } else {
+        None
+    };
+    Ok(BenchRun {
+        adapter: ctx.adapter_description(),
+        error,
+        passthrough: compared.passthrough,
+        plain_look: compared.plain_look,
+        vertex_stage: compared.vertex_stage,
+        options: options.clone(),
+        frames,
+        settle_s: end.settle_s,
+        settled: end.settled,
+        final_vs_loaded_px: end.final_vs_loaded_px,
+        final_frame: end.final_frame,
+        final_camera,
+        wall_s: started.elapsed().as_secs_f64(),
+    })
+}
+
+/// What every frame of a run is drawn through, so the steps below take one argument for it
+/// instead of three.
+struct Rig<'a> {
+    ctx: &'a GpuContext,
+    target: &'a OffscreenFrame,
+    timer: Option<&'a GpuTimer>,
+}
+
+impl Rig<'_> {
+    /// One timed frame of `renderer` at `camera`.
+    fn draw(
+        &self,
+        renderer: &mut TerrainRenderer,
+        camera: &Camera,
+    ) -> Result<TimedFrame, RenderError> {
+        self.target
+            .draw_timed(self.ctx, renderer, camera, self.timer)
+    }
+
+    /// `n` timed frames at one still camera, as records.
+    fn records_at(
+        &self,
+        renderer: &mut TerrainRenderer,
+        camera: &Camera,
+        n: usize,
+    ) -> Result<Vec<FrameRecord>, RenderError> {
+        let mut records = Vec::new();
+        for _ in 0..n {
+            let f = self.draw(renderer, camera)?;
+            records.push(FrameRecord::of(&f, camera));
+        }
+        Ok(records)
+    }
+}
+
+/// A still view is measured warm: streaming settles first, then `warmup` untimed frames, so
+/// the measured frames see neither missing tiles nor first-draw costs.
+fn warm_up(
+    rig: &Rig<'_>,
+    renderer: &mut TerrainRenderer,
+    camera: &Camera,
+    options: &BenchOptions,
+) -> Result<(), RenderError> {
+    renderer.settle_or_explain(
+        rig.ctx,
+        camera,
+        options.width,
+        options.height,
+        SETTLE_TIMEOUT,
+    )?;
+    for _ in 0..options.warmup {
+        rig.draw(renderer, camera)?;
+    }
+    Ok(())
+}
+
+/// The measured frames, paced by [`BenchOptions::frame_interval`] when it is set so that
+/// streaming gets the wall time a viewer would give it.
+fn measured_frames(
+    rig: &Rig<'_>,
+    renderer: &mut TerrainRenderer,
+    options: &BenchOptions,
+    camera_of: impl Fn(usize) -> Camera,
+    progress: &mut impl FnMut(usize, usize),
+) -> Result<Vec<FrameRecord>, RenderError> {
     let mut frames = Vec::with_capacity(options.frames);
     let mut next_start = Instant::now();
     for i in 0..options.frames {
@@ -246,104 +355,137 @@ pub fn run_with(
             next_start = next_start.max(now) + dt;
         }
         let camera = camera_of(i);
-        let f = target.draw_timed(ctx, &mut renderer, &camera, timer.as_ref())?;
+        let f = rig.draw(renderer, &camera)?;
         frames.push(FrameRecord::of(&f, &camera));
         progress(i + 1, options.frames);
     }
-    let mut passthrough = Vec::new();
-    if let (true, Some(camera)) = (options.passthrough, &fixed) {
+    Ok(frames)
+}
+
+/// The frames of the comparisons a still view can make (empty where not asked for).
+#[derive(Default)]
+struct Compared {
+    passthrough: Vec<FrameRecord>,
+    plain_look: Vec<FrameRecord>,
+    vertex_stage: Vec<FrameRecord>,
+}
+
+/// The same still frames again with one thing changed at a time (pass-through pipeline,
+/// plain look, vertex-stage placement), each put back afterwards, so their cost is a ratio
+/// within one run.
+fn compare_still(
+    rig: &Rig<'_>,
+    renderer: &mut TerrainRenderer,
+    camera: &Camera,
+    options: &BenchOptions,
+) -> Result<Compared, RenderError> {
+    let mut compared = Compared::default();
+    if options.passthrough {
         renderer.use_passthrough = true;
-        for _ in 0..options.frames {
-            let f = target.draw_timed(ctx, &mut renderer, camera, timer.as_ref())?;
-            passthrough.push(FrameRecord::of(&f, camera));
-        }
+        compared.passthrough = rig.records_at(renderer, camera, options.frames)?;
         renderer.use_passthrough = false;
     }
-    let mut plain_look = Vec::new();
-    if let (true, Some(camera)) = (options.compare_plain_look, &fixed) {
-        renderer.set_look(&ctx.device, LookSettings::plain());
+    if options.compare_plain_look {
+        renderer.set_look(&rig.ctx.device, LookSettings::plain());
         // One untimed frame: the new pipelines' first draw compiles them on some drivers.
-        target.draw_timed(ctx, &mut renderer, camera, timer.as_ref())?;
-        for _ in 0..options.frames {
-            let f = target.draw_timed(ctx, &mut renderer, camera, timer.as_ref())?;
-            plain_look.push(FrameRecord::of(&f, camera));
-        }
-        renderer.set_look(&ctx.device, options.look);
+        rig.draw(renderer, camera)?;
+        compared.plain_look = rig.records_at(renderer, camera, options.frames)?;
+        renderer.set_look(&rig.ctx.device, options.look);
     }
-    let mut vertex_stage = Vec::new();
-    if let (true, Some(camera)) = (options.compare_vertex_stage, &fixed) {
+    if options.compare_vertex_stage {
         renderer.set_place_in_vertex_stage(true);
-        target.draw_timed(ctx, &mut renderer, camera, timer.as_ref())?;
-        for _ in 0..options.frames {
-            let f = target.draw_timed(ctx, &mut renderer, camera, timer.as_ref())?;
-            vertex_stage.push(FrameRecord::of(&f, camera));
-        }
+        rig.draw(renderer, camera)?;
+        compared.vertex_stage = rig.records_at(renderer, camera, options.frames)?;
         renderer.set_place_in_vertex_stage(false);
     }
-    let final_camera = camera_of(options.frames.saturating_sub(1));
-    let (mut settle_s, mut settled, mut final_vs_loaded_px, mut final_frame) =
-        (None, true, None, None);
-    if is_flight {
-        let t = Instant::now();
-        settled = match renderer.settle_or_explain(
-            ctx,
-            &final_camera,
-            options.width,
-            options.height,
-            SETTLE_TIMEOUT,
-        ) {
-            Ok(()) => true,
-            // Never settling is the flight's finding; settings that cannot work are an error.
-            Err(RenderError::NotSettled { .. }) => false,
-            Err(e) => return Err(e.into()),
-        };
-        settle_s = Some(t.elapsed().as_secs_f64());
-        let last = target.render_now(ctx, &mut renderer, &final_camera)?;
-        // The reference: a fresh renderer with no faults that waited for everything.
-        let mut fresh = TerrainRenderer::new(
-            &ctx.device,
-            options.settings.clone(),
-            terrain.clone(),
-            COLOR_FORMAT,
-        )?;
-        fresh.set_look(&ctx.device, options.look);
-        fresh.set_lod(&ctx.device, options.lod);
-        let loaded = target.render(ctx, &mut fresh, &final_camera)?;
-        final_vs_loaded_px = Some(pixels_differing(&last, &loaded));
-        final_frame = Some(last);
+    Ok(compared)
+}
+
+/// What the flight found after its last frame (a still view's defaults: settled, nothing
+/// compared).
+struct FlightEnd {
+    settle_s: Option<f64>,
+    settled: bool,
+    final_vs_loaded_px: Option<usize>,
+    final_frame: Option<RenderedFrame>,
+}
+
+impl Default for FlightEnd {
+    fn default() -> Self {
+        Self {
+            settle_s: None,
+            settled: true,
+            final_vs_loaded_px: None,
+            final_frame: None,
+        }
     }
-    let error = if options.measure_error {
-        let frame = match final_frame.take() {
-            Some(f) => f,
-            None => target.render(ctx, &mut renderer, &final_camera)?,
-        };
-        let stats = crate::measure::evaluate_within(
-            &frame,
-            &final_camera,
-            terrain,
-            measure.limit,
-            measure.progress,
-        )?;
-        final_frame = Some(frame);
-        Some(stats)
-    } else {
-        None
+}
+
+/// The flight ran cold, so afterwards it waits for streaming to settle at the last camera
+/// and compares that frame with a fresh renderer's that had everything loaded.
+fn settle_after_flight(
+    rig: &Rig<'_>,
+    renderer: &mut TerrainRenderer,
+    terrain: &Terrain,
+    options: &BenchOptions,
+    final_camera: &Camera,
+) -> Result<FlightEnd, BenchError> {
+    let ctx = rig.ctx;
+    let t = Instant::now();
+    let settled = match renderer.settle_or_explain(
+        ctx,
+        final_camera,
+        options.width,
+        options.height,
+        SETTLE_TIMEOUT,
+    ) {
+        Ok(()) => true,
+        // Never settling is the flight's finding; settings that cannot work are an error.
+        Err(RenderError::NotSettled { .. }) => false,
+        Err(e) => return Err(e.into()),
     };
-    Ok(BenchRun {
-        adapter: ctx.adapter_description(),
-        error,
-        passthrough,
-        plain_look,
-        vertex_stage,
-        options: options.clone(),
-        frames,
+    let settle_s = Some(t.elapsed().as_secs_f64());
+    let last = rig.target.render_now(ctx, renderer, final_camera)?;
+    // The reference: a fresh renderer with no faults that waited for everything.
+    let mut fresh = TerrainRenderer::new(
+        &ctx.device,
+        options.settings.clone(),
+        terrain.clone(),
+        COLOR_FORMAT,
+    )?;
+    fresh.set_look(&ctx.device, options.look);
+    fresh.set_lod(&ctx.device, options.lod);
+    let loaded = rig.target.render(ctx, &mut fresh, final_camera)?;
+    Ok(FlightEnd {
         settle_s,
         settled,
-        final_vs_loaded_px,
-        final_frame,
-        final_camera,
-        wall_s: started.elapsed().as_secs_f64(),
+        final_vs_loaded_px: Some(pixels_differing(&last, &loaded)),
+        final_frame: Some(last),
     })
+}
+
+/// The error of the final frame (the flight's settled one, or a settled render of the still
+/// view), returned with the frame it was measured on.
+fn measure_final(
+    rig: &Rig<'_>,
+    renderer: &mut TerrainRenderer,
+    terrain: &Terrain,
+    final_camera: &Camera,
+    final_frame: Option<RenderedFrame>,
+    measure: MeasureWatch<'_>,
+) -> Result<(RenderedFrame, ErrorStats), BenchError> {
+    let frame = match final_frame {
+        Some(f) => f,
+        None => rig.target.render(rig.ctx, renderer, final_camera)?,
+    };
+    let stats = crate::measure::evaluate_within(
+        &frame,
+        final_camera,
+        terrain,
+        measure.limit,
+        measure.progress,
+    )?;
+    Ok((frame, stats))
 }
 
 impl BenchRun {

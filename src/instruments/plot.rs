@@ -21,11 +21,15 @@ use std::sync::Once;
 
 use image::RgbImage;
 use plotters::coord::Shift;
-use plotters::coord::ranged1d::{DefaultFormatting, KeyPointHint, Ranged};
 use plotters::prelude::*;
 use plotters::style::{FontStyle, RGBColor, register_font};
 
 use crate::measure::MeasureError;
+
+mod axes;
+
+pub use axes::Axis;
+use axes::{TickedAxis, resolve_axis};
 
 /// One setting of the plot: `x` its time in ms, `y` its error in px. Points of one `group`
 /// share a marker colour and shape; `label` is written beside the marker.
@@ -80,30 +84,6 @@ pub fn pareto_front(points: &[Point]) -> Vec<usize> {
         }
     }
     front
-}
-
-/// One axis as drawn: the data range and whether it is logarithmic (after any fallback).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Axis {
-    pub lo: f64,
-    pub hi: f64,
-    pub log: bool,
-}
-
-impl Axis {
-    fn transform(&self, v: f64) -> f64 {
-        if self.log { v.log10() } else { v }
-    }
-
-    /// Where `v` falls along the axis: 0 at `lo`, 1 at `hi`; None where it cannot be drawn
-    /// (not finite, or ≤ 0 on a log axis).
-    pub fn fraction(&self, v: f64) -> Option<f64> {
-        if !v.is_finite() || (self.log && v <= 0.0) {
-            return None;
-        }
-        let (a, b) = (self.transform(self.lo), self.transform(self.hi));
-        Some((self.transform(v) - a) / (b - a))
-    }
 }
 
 /// Marker pixels of a drawn panel (see [`draw_panel`]), for a caller or a test to find them.
@@ -221,216 +201,6 @@ fn draw_marker<DB: DrawingBackend>(
     area.draw(&(EmptyElement::at(at) + PathElement::new(edge, outline.stroke_width(2))))
 }
 
-/// A tick: its value, and its label (labelled ticks are the bold grid lines).
-#[derive(Clone, Debug, PartialEq)]
-struct Tick {
-    value: f64,
-    label: Option<String>,
-}
-
-/// An axis with its ticks chosen: the coordinate `plotters` maps through. Its bold key points
-/// are the labelled ticks, its light ones every tick.
-#[derive(Clone, Debug)]
-struct TickedAxis {
-    axis: Axis,
-    ticks: Vec<Tick>,
-}
-
-impl TickedAxis {
-    fn new(axis: Axis, target: f64) -> Self {
-        Self {
-            ticks: axis_ticks(&axis, target),
-            axis,
-        }
-    }
-
-    fn label(&self, v: f64) -> String {
-        (self.ticks.iter())
-            .filter(|t| t.label.is_some())
-            .min_by(|a, b| (a.value - v).abs().total_cmp(&(b.value - v).abs()))
-            .and_then(|t| t.label.clone())
-            .unwrap_or_default()
-    }
-}
-
-impl Ranged for TickedAxis {
-    type FormatOption = DefaultFormatting;
-    type ValueType = f64;
-
-    fn map(&self, value: &f64, limit: (i32, i32)) -> i32 {
-        let t = self.axis.fraction(*value).unwrap_or(f64::NAN);
-        let px = f64::from(limit.0) + t * f64::from(limit.1 - limit.0);
-        // Off-axis values (never drawn: the caller skips them) land on the low end.
-        if px.is_finite() {
-            px.round().clamp(-1e6, 1e6) as i32
-        } else {
-            limit.0
-        }
-    }
-
-    fn key_points<Hint: KeyPointHint>(&self, hint: Hint) -> Vec<f64> {
-        let light = hint.weight().allow_light_points();
-        (self.ticks.iter())
-            .filter(|t| light || t.label.is_some())
-            .map(|t| t.value)
-            .collect()
-    }
-
-    fn range(&self) -> Range<f64> {
-        self.axis.lo..self.axis.hi
-    }
-}
-
-/// Range of an axis over `values` (finite), padded so that markers clear the box; whether a
-/// log axis fell back to linear because of a value ≤ 0.
-fn resolve_axis(values: &[f64], log: bool) -> (Axis, bool) {
-    let fell_back = log && values.iter().any(|&v| v <= 0.0);
-    let log = log && !fell_back;
-    let f = |v: f64| if log { v.log10() } else { v };
-    let inv = |t: f64| if log { 10f64.powf(t) } else { t };
-    let (mut lo, mut hi) = (values.iter())
-        .map(|&v| f(v))
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
-            (a.min(v), b.max(v))
-        });
-    if values.is_empty() {
-        (lo, hi) = (0.0, 1.0);
-    } else if lo == hi {
-        let d = match (log, lo == 0.0) {
-            (true, _) => 0.5,
-            (false, true) => 1.0,
-            (false, false) => 0.1 * lo.abs(),
-        };
-        (lo, hi) = (lo - d, hi + d);
-    } else {
-        let p = 0.06 * (hi - lo);
-        (lo, hi) = (lo - p, hi + p);
-    }
-    // The padding must not leave f64 at the extremes of its range.
-    let (min, max) = if log {
-        (-307.0, 308.0)
-    } else {
-        (f64::MIN / 4.0, f64::MAX / 4.0)
-    };
-    (lo, hi) = (lo.max(min), hi.min(max));
-    let axis = Axis {
-        lo: inv(lo),
-        hi: inv(hi),
-        log,
-    };
-    (axis, fell_back)
-}
-
-/// The 1-2-5 step nearest above `raw`.
-fn nice_step(raw: f64) -> f64 {
-    let mag = 10f64.powf(raw.log10().floor());
-    let f = raw / mag;
-    let m = match f {
-        f if f < 1.5 => 1.0,
-        f if f < 3.5 => 2.0,
-        f if f < 7.5 => 5.0,
-        _ => 10.0,
-    };
-    m * mag
-}
-
-/// About `target` ticks: on a linear axis labelled 1-2-5 steps; on a log axis decades, with
-/// ticks at 2 and 5 between them where fewer than `target` decades show, labelled too when
-/// fewer than three do, at every 1…9 × 10^k within less than a decade, and only every 2nd,
-/// 5th… decade over very many. A log axis narrower than a 1-2-5 step gets linear steps.
-fn axis_ticks(axis: &Axis, target: f64) -> Vec<Tick> {
-    let target = target.clamp(2.0, 12.0);
-    if !axis.log {
-        return linear_ticks(axis.lo, axis.hi, target);
-    }
-    let (a, b) = (axis.lo.log10(), axis.hi.log10());
-    if !(a.is_finite() && b.is_finite() && b > a) {
-        return Vec::new();
-    }
-    let minors = b - a <= target;
-    let mantissas: &[i32] = if b - a < 1.0 {
-        &[1, 2, 3, 4, 5, 6, 7, 8, 9]
-    } else {
-        &[1, 2, 5]
-    };
-    // Over many decades, every 2nd, 5th, 10th… decade, so that ticks stay apart.
-    let every = if b - a <= 1.5 * target {
-        1
-    } else {
-        nice_step((b - a) / target) as i32
-    };
-    let mut ticks = Vec::new();
-    for k in (a.floor().max(-330.0) as i32)..=(b.ceil().min(330.0) as i32) {
-        if k.rem_euclid(every) != 0 {
-            continue;
-        }
-        for &m in mantissas {
-            let v = f64::from(m) * 10f64.powi(k);
-            let lv = v.log10();
-            if (m != 1 && !minors) || lv < a - 1e-9 || lv > b + 1e-9 {
-                continue;
-            }
-            ticks.push(Tick {
-                value: v,
-                label: Some(log_label(m, k)),
-            });
-        }
-    }
-    if ticks.len() < 2 {
-        return linear_ticks(axis.lo, axis.hi, target);
-    }
-    let decades = ticks.iter().filter(|t| is_decade(t.value)).count();
-    if decades >= 3 {
-        for t in ticks.iter_mut().filter(|t| !is_decade(t.value)) {
-            t.label = None;
-        }
-    }
-    ticks
-}
-
-fn is_decade(v: f64) -> bool {
-    let l = v.log10();
-    (l - l.round()).abs() < 1e-9
-}
-
-fn linear_ticks(lo: f64, hi: f64, target: f64) -> Vec<Tick> {
-    let step = nice_step((hi - lo) / target);
-    let (first, last) = ((lo / step).ceil(), (hi / step).floor());
-    if !(step > 0.0 && step.is_finite() && (0.0..=100.0).contains(&(last - first))) {
-        return Vec::new();
-    }
-    // Plain numbers over the usual range; beyond it e-notation with the digits the step needs.
-    let step_exp = step.log10().floor();
-    let top_exp = lo.abs().max(hi.abs()).log10().floor();
-    let plain = (-4.0..=6.0).contains(&step_exp) && top_exp <= 6.0;
-    (first as i64..=last as i64)
-        .map(|i| {
-            let v = if i == 0 { 0.0 } else { i as f64 * step };
-            let label = match plain {
-                true => format!("{:.*}", (-step_exp).max(0.0) as usize, v),
-                false if v == 0.0 => "0".into(),
-                false => {
-                    let digits = (v.abs().log10().floor() - step_exp).clamp(0.0, 3.0);
-                    format!("{:.*e}", digits as usize, v)
-                }
-            };
-            Tick {
-                value: v,
-                label: Some(label),
-            }
-        })
-        .collect()
-}
-
-/// `m`·10^`k` written plainly over the usual range, in e-notation beyond.
-fn log_label(m: i32, k: i32) -> String {
-    match k {
-        0..=5 => (i64::from(m) * 10i64.pow(k as u32)).to_string(),
-        -4..=-1 => format!("{:.*}", (-k) as usize, f64::from(m) * 10f64.powi(k)),
-        _ => format!("{m}e{k}"),
-    }
-}
-
 #[derive(Clone, Copy, Debug)]
 struct Rect {
     x: i32,
@@ -518,71 +288,244 @@ pub fn draw_panel<DB: DrawingBackend>(
 ) -> DrawResult<Drawn, DB> {
     register_embedded_font();
     let (w, h) = area.dim_in_pixel();
-    // 15 px text on a 1100 × 620 panel.
-    let unit = f64::from(w.min(2 * h)).max(200.0) / 1100.0;
-    let px = |v: f64| (v * unit).round().max(1.0) as i32;
-    let font = |size: f64| (FONT, size * unit).into_font();
-    let text = font(15.0).color(&TEXT);
-    let label_text = font(13.0).color(&LABEL);
-
-    let valid: Vec<usize> = (0..points.len())
-        .filter(|&i| points[i].x.is_finite() && points[i].y.is_finite())
+    let s = Scale::of(w, h);
+    let text = s.font(15.0).color(&TEXT);
+    let contents = Contents::of(spec, points);
+    let legend = Legend::measure(area, &contents, points.len(), s, &text)?;
+    let chart_w = (w as i32 - legend.width).max(w as i32 / 2) as u32;
+    let (chart_area, legend_area) = area.split_horizontally(chart_w);
+    let chart = draw_chart(&chart_area, spec, &contents, (chart_w, h), s, &text)?;
+    let markers = marker_centres(points, &contents, &chart);
+    let front: Vec<(i32, i32)> = (pareto_front(points).into_iter())
+        .filter_map(|i| markers[i])
         .collect();
-    let skipped = points.len() - valid.len();
-    let xs: Vec<f64> = valid.iter().map(|&i| points[i].x).collect();
-    let ys: Vec<f64> = valid.iter().map(|&i| points[i].y).collect();
-    let (x_axis, x_fell_back) = resolve_axis(&xs, spec.log_x);
-    let (y_axis, y_fell_back) = resolve_axis(&ys, spec.log_y);
-    let title_of = |t: &str, fell_back: bool| match fell_back {
+    // Everything from here is drawn in pixels of the panel.
+    let origin = area.get_base_pixel();
+    draw_front_and_markers(area, origin, points, &contents.groups, &markers, &front, s)?;
+    let (xr, yr) = chart.plotting_area().get_pixel_range();
+    let plot_rect = Rect::new(xr.start, yr.start, xr.end - xr.start, yr.end - yr.start);
+    draw_labels(area, origin, points, &markers, &front, plot_rect, s)?;
+    if contents.valid.is_empty() {
+        draw_no_data(area, origin, (xr, yr.clone()), s)?;
+    }
+    legend.draw(&legend_area, yr.start - origin.1, s, &text)?;
+    Ok(Drawn {
+        markers,
+        x_axis: contents.x_axis,
+        y_axis: contents.y_axis,
+    })
+}
+
+/// A panel's sizes follow its size (15 px text on a 1100 × 620 panel), so that one figure
+/// reads the same drawn small or large.
+#[derive(Clone, Copy, Debug)]
+struct Scale {
+    unit: f64,
+}
+
+impl Scale {
+    fn of(w: u32, h: u32) -> Self {
+        Self {
+            unit: f64::from(w.min(2 * h)).max(200.0) / 1100.0,
+        }
+    }
+
+    /// `v` design pixels in the panel's pixels, at least one.
+    fn px(self, v: f64) -> i32 {
+        (v * self.unit).round().max(1.0) as i32
+    }
+
+    /// The plots' font at `size` design pixels.
+    fn font(self, size: f64) -> FontDesc<'static> {
+        (FONT, size * self.unit).into_font()
+    }
+
+    /// A marker's radius.
+    fn marker_r(self) -> f64 {
+        6.0 * self.unit
+    }
+
+    /// The radius of the ring round a front point: just outside its marker.
+    fn ring_r(self) -> f64 {
+        self.marker_r() + 3.0 * self.unit
+    }
+
+    /// The ring that marks a point of the front, centred at `c`.
+    fn ring(self, c: (i32, i32)) -> Circle<(i32, i32), i32> {
+        Circle::new(c, self.ring_r().round() as i32, FRONT.stroke_width(2))
+    }
+
+    /// The Pareto front's line.
+    fn front_style(self) -> ShapeStyle {
+        FRONT.stroke_width(self.px(3.0) as u32)
+    }
+}
+
+/// What a panel shows of its points, worked out before anything is drawn: which points can
+/// be drawn, the axes they span and the groups they fall in, in order of first appearance.
+struct Contents<'p> {
+    /// Indices of the points with finite coordinates.
+    valid: Vec<usize>,
+    x_axis: Axis,
+    x_fell_back: bool,
+    y_axis: Axis,
+    y_fell_back: bool,
+    groups: Vec<&'p str>,
+}
+
+impl<'p> Contents<'p> {
+    fn of(spec: &PlotSpec, points: &'p [Point]) -> Self {
+        let valid: Vec<usize> = (0..points.len())
+            .filter(|&i| points[i].x.is_finite() && points[i].y.is_finite())
+            .collect();
+        let xs: Vec<f64> = valid.iter().map(|&i| points[i].x).collect();
+        let ys: Vec<f64> = valid.iter().map(|&i| points[i].y).collect();
+        let (x_axis, x_fell_back) = resolve_axis(&xs, spec.log_x);
+        let (y_axis, y_fell_back) = resolve_axis(&ys, spec.log_y);
+        let mut groups: Vec<&str> = Vec::new();
+        for &i in &valid {
+            if !groups.contains(&points[i].group.as_str()) {
+                groups.push(&points[i].group);
+            }
+        }
+        Self {
+            valid,
+            x_axis,
+            x_fell_back,
+            y_axis,
+            y_fell_back,
+            groups,
+        }
+    }
+}
+
+/// An axis title, saying so where a log axis fell back to linear.
+fn axis_title(t: &str, fell_back: bool) -> String {
+    match fell_back {
         true => format!("{t} (linear: values <= 0)")
             .trim_start()
             .to_string(),
         false => t.to_string(),
-    };
+    }
+}
 
-    let mut groups: Vec<&str> = Vec::new();
-    for &i in &valid {
-        if !groups.contains(&points[i].group.as_str()) {
-            groups.push(&points[i].group);
+/// The legend's column right of the chart: its lines (one per group, then the front), the
+/// note on skipped points, and its width, measured before the chart takes the rest.
+struct Legend {
+    entries: Vec<String>,
+    groups: usize,
+    skipped_note: Option<String>,
+    symbol_w: i32,
+    pad: i32,
+    /// As wide as its longest line; 0 with no lines.
+    width: i32,
+}
+
+impl Legend {
+    fn measure<DB: DrawingBackend>(
+        area: &DrawingArea<DB, Shift>,
+        contents: &Contents<'_>,
+        points: usize,
+        s: Scale,
+        text: &TextStyle<'_>,
+    ) -> DrawResult<Self, DB> {
+        let skipped = points - contents.valid.len();
+        let mut entries: Vec<String> = (contents.groups.iter())
+            .map(|g| match g.is_empty() {
+                true => "(no group)".to_string(),
+                false => g.to_string(),
+            })
+            .collect();
+        if !contents.valid.is_empty() {
+            entries.push("Pareto front".into());
         }
-    }
-    let mut entries: Vec<String> = (groups.iter())
-        .map(|g| match g.is_empty() {
-            true => "(no group)".to_string(),
-            false => g.to_string(),
+        let skipped_note = match skipped {
+            0 => None,
+            1 => Some("1 point skipped (not finite)".to_string()),
+            n => Some(format!("{n} points skipped (not finite)")),
+        };
+        let symbol_w = s.px(36.0);
+        let pad = s.px(8.0);
+        let mut legend_text_w = 0;
+        for e in entries.iter().chain(skipped_note.as_ref()) {
+            legend_text_w = legend_text_w.max(area.estimate_text_size(e, text)?.0 as i32);
+        }
+        let width = match legend_text_w {
+            0 => 0,
+            t => 4 * pad + symbol_w + t,
+        };
+        Ok(Self {
+            entries,
+            groups: contents.groups.len(),
+            skipped_note,
+            symbol_w,
+            pad,
+            width,
         })
-        .collect();
-    if !valid.is_empty() {
-        entries.push("Pareto front".into());
     }
-    let skipped_note = match skipped {
-        0 => None,
-        1 => Some("1 point skipped (not finite)".to_string()),
-        n => Some(format!("{n} points skipped (not finite)")),
-    };
 
-    // The legend's column right of the chart, as wide as its longest line.
-    let marker_r = 6.0 * unit;
-    let symbol_w = px(36.0);
-    let pad = px(8.0);
-    let mut legend_text_w = 0;
-    for e in entries.iter().chain(skipped_note.as_ref()) {
-        legend_text_w = legend_text_w.max(area.estimate_text_size(e, &text)?.0 as i32);
+    /// One row per group, then the front, framed, with the skipped note under the frame;
+    /// `top` is the plotting area's top, in the legend's pixels.
+    fn draw<DB: DrawingBackend>(
+        self,
+        legend_area: &DrawingArea<DB, Shift>,
+        top: i32,
+        s: Scale,
+        text: &TextStyle<'_>,
+    ) -> DrawResult<(), DB> {
+        let (pad, symbol_w) = (self.pad, self.symbol_w);
+        let row_h = s.px(26.0);
+        let (sym_x, text_x) = (pad + symbol_w / 2, 2 * pad + symbol_w);
+        let centred = text.pos(plotters::style::text_anchor::Pos::new(
+            plotters::style::text_anchor::HPos::Left,
+            plotters::style::text_anchor::VPos::Center,
+        ));
+        for (row, entry) in self.entries.iter().enumerate() {
+            let cy = top + pad + row as i32 * row_h + row_h / 2;
+            if row < self.groups {
+                draw_marker(legend_area, (sym_x, cy), s.marker_r(), group_style(row))?;
+            } else {
+                let half = symbol_w / 2;
+                let line = vec![(sym_x - half, cy), (sym_x + half, cy)];
+                legend_area.draw(&PathElement::new(line, s.front_style()))?;
+                legend_area.draw(&s.ring((sym_x, cy)))?;
+            }
+            legend_area.draw(&Text::new(entry.clone(), (text_x, cy), centred.clone()))?;
+        }
+        let bottom = top + 2 * pad + self.entries.len() as i32 * row_h;
+        if !self.entries.is_empty() {
+            let frame = [(0, top), (self.width - pad - 1, bottom)];
+            legend_area.draw(&Rectangle::new(frame, GRID.stroke_width(1)))?;
+        }
+        if let Some(note) = self.skipped_note {
+            let at = (0, bottom + pad);
+            legend_area.draw(&Text::new(note, at, text.color(&NOTE)))?;
+        }
+        Ok(())
     }
-    let legend_w = match legend_text_w {
-        0 => 0,
-        t => 4 * pad + symbol_w + t,
-    };
-    let chart_w = (w as i32 - legend_w).max(w as i32 / 2) as u32;
-    let (chart_area, legend_area) = area.split_horizontally(chart_w);
+}
 
-    let x = TickedAxis::new(x_axis, f64::from(chart_w) / (110.0 * unit));
-    let y = TickedAxis::new(y_axis, f64::from(h) / (70.0 * unit));
-    let mut chart = ChartBuilder::on(&chart_area)
-        .caption(&spec.title, font(20.0).color(&TEXT))
-        .margin(px(10.0))
-        .x_label_area_size(px(52.0))
-        .y_label_area_size(px(74.0))
+/// The chart `plotters` maps the points through.
+type PanelChart<'c, DB> = ChartContext<'c, DB, Cartesian2d<TickedAxis, TickedAxis>>;
+
+/// The chart's frame on `chart_area` (`size` its pixels): caption, grid, ticked axes and
+/// their titles. The chart comes back to map the points through.
+fn draw_chart<'c, DB: DrawingBackend>(
+    chart_area: &DrawingArea<DB, Shift>,
+    spec: &PlotSpec,
+    contents: &Contents<'_>,
+    (chart_w, h): (u32, u32),
+    s: Scale,
+    text: &TextStyle<'_>,
+) -> DrawResult<PanelChart<'c, DB>, DB> {
+    let unit = s.unit;
+    let x = TickedAxis::new(contents.x_axis, f64::from(chart_w) / (110.0 * unit));
+    let y = TickedAxis::new(contents.y_axis, f64::from(h) / (70.0 * unit));
+    let mut chart = ChartBuilder::on(chart_area)
+        .caption(&spec.title, s.font(20.0).color(&TEXT))
+        .margin(s.px(10.0))
+        .x_label_area_size(s.px(52.0))
+        .y_label_area_size(s.px(74.0))
         .build_cartesian_2d(x.clone(), y.clone())?;
     let (x_fmt, y_fmt) = (|v: &f64| x.label(*v), |v: &f64| y.label(*v));
     chart
@@ -592,107 +535,120 @@ pub fn draw_panel<DB: DrawingBackend>(
         .axis_style(AXIS.stroke_width(1))
         .label_style(text.clone())
         .axis_desc_style(text.clone())
-        .x_desc(title_of(&spec.x_label, x_fell_back))
-        .y_desc(title_of(&spec.y_label, y_fell_back))
+        .x_desc(axis_title(&spec.x_label, contents.x_fell_back))
+        .y_desc(axis_title(&spec.y_label, contents.y_fell_back))
         .x_label_formatter(&x_fmt)
         .y_label_formatter(&y_fmt)
         .x_max_light_lines(12)
         .y_max_light_lines(12)
         .draw()?;
+    Ok(chart)
+}
 
-    let markers: Vec<Option<(i32, i32)>> = (0..points.len())
+/// Each point's marker centre in the whole image; None for a point that was skipped or
+/// cannot be drawn on an axis.
+fn marker_centres<DB: DrawingBackend>(
+    points: &[Point],
+    contents: &Contents<'_>,
+    chart: &PanelChart<'_, DB>,
+) -> Vec<Option<(i32, i32)>> {
+    (0..points.len())
         .map(|i| {
             let q = &points[i];
-            let drawable = valid.contains(&i) && x_axis.fraction(q.x).is_some();
-            (drawable && y_axis.fraction(q.y).is_some()).then(|| chart.backend_coord(&(q.x, q.y)))
+            let drawable = contents.valid.contains(&i) && contents.x_axis.fraction(q.x).is_some();
+            (drawable && contents.y_axis.fraction(q.y).is_some())
+                .then(|| chart.backend_coord(&(q.x, q.y)))
         })
-        .collect();
-    let front: Vec<(i32, i32)> = (pareto_front(points).into_iter())
-        .filter_map(|i| markers[i])
-        .collect();
-    // Everything from here is drawn in pixels of the panel.
-    let (ox, oy) = area.get_base_pixel();
-    let local = |(x, y): (i32, i32)| (x - ox, y - oy);
-    let front_style = FRONT.stroke_width(px(3.0) as u32);
-    let ring_r = marker_r + 3.0 * unit;
-    let ring = |c: (i32, i32)| Circle::new(c, ring_r.round() as i32, FRONT.stroke_width(2));
+        .collect()
+}
 
-    // The front under the markers, so that every marker stays whole; rings over them.
+/// `c` (pixels of the whole image) in pixels of the panel whose top-left is `origin`.
+fn local((ox, oy): (i32, i32), (x, y): (i32, i32)) -> (i32, i32) {
+    (x - ox, y - oy)
+}
+
+/// The front under the markers, so that every marker stays whole; rings over them.
+fn draw_front_and_markers<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    origin: (i32, i32),
+    points: &[Point],
+    groups: &[&str],
+    markers: &[Option<(i32, i32)>],
+    front: &[(i32, i32)],
+    s: Scale,
+) -> DrawResult<(), DB> {
     area.draw(&PathElement::new(
-        front.iter().map(|&c| local(c)).collect::<Vec<_>>(),
-        front_style,
+        front.iter().map(|&c| local(origin, c)).collect::<Vec<_>>(),
+        s.front_style(),
     ))?;
     let style_of = |g: &str| group_style(groups.iter().position(|x| *x == g).unwrap_or(0));
     for (i, m) in markers.iter().enumerate() {
         if let Some(c) = *m {
-            draw_marker(area, local(c), marker_r, style_of(&points[i].group))?;
+            draw_marker(
+                area,
+                local(origin, c),
+                s.marker_r(),
+                style_of(&points[i].group),
+            )?;
         }
     }
-    for &c in &front {
-        area.draw(&ring(local(c)))?;
+    for &c in front {
+        area.draw(&s.ring(local(origin, c)))?;
     }
-    let (xr, yr) = chart.plotting_area().get_pixel_range();
-    let plot_rect = Rect::new(xr.start, yr.start, xr.end - xr.start, yr.end - yr.start);
+    Ok(())
+}
+
+/// Each drawn point's label, placed by [`place_labels`] clear of the rings, the front and
+/// the other labels within the plotting area `plot_rect`.
+fn draw_labels<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    origin: (i32, i32),
+    points: &[Point],
+    markers: &[Option<(i32, i32)>],
+    front: &[(i32, i32)],
+    plot_rect: Rect,
+    s: Scale,
+) -> DrawResult<(), DB> {
+    let label_text = &s.font(13.0).color(&LABEL);
     let mut sizes = Vec::with_capacity(points.len());
-    for (q, m) in points.iter().zip(&markers) {
+    for (q, m) in points.iter().zip(markers) {
         let (lw, lh) = match (m, q.label.is_empty()) {
-            (Some(_), false) => area.estimate_text_size(&q.label, &label_text)?,
+            (Some(_), false) => area.estimate_text_size(&q.label, label_text)?,
             _ => (0, 0),
         };
         sizes.push((lw as i32, lh as i32));
     }
-    let clearance = ring_r.ceil() as i32 + 1;
-    let labels = place_labels(&markers, &front, &sizes, clearance, plot_rect);
+    let clearance = s.ring_r().ceil() as i32 + 1;
+    let labels = place_labels(markers, front, &sizes, clearance, plot_rect);
     for (q, at) in points.iter().zip(labels) {
         if let (Some(at), false) = (at, q.label.is_empty()) {
-            area.draw(&Text::new(q.label.clone(), local(at), label_text.clone()))?;
+            area.draw(&Text::new(
+                q.label.clone(),
+                local(origin, at),
+                label_text.clone(),
+            ))?;
         }
     }
-    if valid.is_empty() {
-        let note = font(20.0)
-            .color(&NOTE)
-            .pos(plotters::style::text_anchor::Pos::new(
-                plotters::style::text_anchor::HPos::Center,
-                plotters::style::text_anchor::VPos::Center,
-            ));
-        let centre = ((xr.start + xr.end) / 2, (yr.start + yr.end) / 2);
-        area.draw(&Text::new("no data", local(centre), note))?;
-    }
+    Ok(())
+}
 
-    // The legend: one row per group, then the front.
-    let row_h = px(26.0);
-    let top = yr.start - oy;
-    let (sym_x, text_x) = (pad + symbol_w / 2, 2 * pad + symbol_w);
-    let centred = text.pos(plotters::style::text_anchor::Pos::new(
-        plotters::style::text_anchor::HPos::Left,
-        plotters::style::text_anchor::VPos::Center,
-    ));
-    for (row, entry) in entries.iter().enumerate() {
-        let cy = top + pad + row as i32 * row_h + row_h / 2;
-        if row < groups.len() {
-            draw_marker(&legend_area, (sym_x, cy), marker_r, group_style(row))?;
-        } else {
-            let half = symbol_w / 2;
-            let line = vec![(sym_x - half, cy), (sym_x + half, cy)];
-            legend_area.draw(&PathElement::new(line, front_style))?;
-            legend_area.draw(&ring((sym_x, cy)))?;
-        }
-        legend_area.draw(&Text::new(entry.clone(), (text_x, cy), centred.clone()))?;
-    }
-    let bottom = top + 2 * pad + entries.len() as i32 * row_h;
-    if !entries.is_empty() {
-        let frame = [(0, top), (legend_w - pad - 1, bottom)];
-        legend_area.draw(&Rectangle::new(frame, GRID.stroke_width(1)))?;
-    }
-    if let Some(note) = skipped_note {
-        let at = (0, bottom + pad);
-        legend_area.draw(&Text::new(note, at, text.color(&NOTE)))?;
-    }
-    Ok(Drawn {
-        markers,
-        x_axis,
-        y_axis,
-    })
+/// An empty panel says so, centred on its plotting area (`xr`, `yr`).
+fn draw_no_data<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    origin: (i32, i32),
+    (xr, yr): (Range<i32>, Range<i32>),
+    s: Scale,
+) -> DrawResult<(), DB> {
+    let note = s
+        .font(20.0)
+        .color(&NOTE)
+        .pos(plotters::style::text_anchor::Pos::new(
+            plotters::style::text_anchor::HPos::Center,
+            plotters::style::text_anchor::VPos::Center,
+        ));
+    let centre = ((xr.start + xr.end) / 2, (yr.start + yr.end) / 2);
+    area.draw(&Text::new("no data", local(origin, centre), note))?;
+    Ok(())
 }
 
 /// Draws `panels` stacked top to bottom, each `width` × `panel_height` pixels.
@@ -864,101 +820,6 @@ mod tests {
             });
             assert_eq!(pareto_front(&pts), expected);
         }
-    }
-
-    #[test]
-    fn nice_steps_and_ticks() {
-        assert_eq!(nice_step(0.13), 0.1);
-        assert_eq!(nice_step(0.3), 0.2);
-        assert_eq!(nice_step(4.0), 5.0);
-        assert_eq!(nice_step(80.0), 100.0);
-        let labels =
-            |t: &[Tick]| -> Vec<String> { t.iter().filter_map(|t| t.label.clone()).collect() };
-        assert_eq!(
-            labels(&linear_ticks(-0.05, 1.05, 5.0)),
-            ["0.0", "0.2", "0.4", "0.6", "0.8", "1.0"]
-        );
-        // Three decades: decades labelled, 2 and 5 ticks unlabelled.
-        let axis = Axis {
-            lo: 0.08,
-            hi: 120.0,
-            log: true,
-        };
-        let t = axis_ticks(&axis, 8.0);
-        assert_eq!(labels(&t), ["0.1", "1", "10", "100"]);
-        let values: Vec<f64> = t.iter().map(|t| t.value).collect();
-        let expected = [0.1, 0.2, 0.5, 1.0, 2.0, 5.0, 10.0, 20.0, 50.0, 100.0];
-        assert_eq!(values.len(), expected.len());
-        assert!(
-            values
-                .iter()
-                .zip(expected)
-                .all(|(a, b)| (a - b).abs() < 1e-12 * b)
-        );
-        // Under two decades: the 2 and 5 ticks are labelled too.
-        let axis = Axis {
-            lo: 1.5,
-            hi: 60.0,
-            log: true,
-        };
-        assert_eq!(
-            labels(&axis_ticks(&axis, 8.0)),
-            ["2", "5", "10", "20", "50"]
-        );
-        // Under one decade: every 1…9 × 10^k.
-        let axis = Axis {
-            lo: 1.9,
-            hi: 8.2,
-            log: true,
-        };
-        assert_eq!(
-            labels(&axis_ticks(&axis, 8.0)),
-            ["2", "3", "4", "5", "6", "7", "8"]
-        );
-        // Inside one 1-2-5 step: linear steps.
-        let axis = Axis {
-            lo: 2.1,
-            hi: 2.9,
-            log: true,
-        };
-        let t = labels(&axis_ticks(&axis, 8.0));
-        assert!(
-            t.len() >= 3 && t.iter().all(|l| l.starts_with("2.")),
-            "{t:?}"
-        );
-        assert_eq!(
-            labels(&linear_ticks(0.0, 3e8, 3.0)),
-            ["0", "1e8", "2e8", "3e8"]
-        );
-        assert_eq!(
-            labels(&linear_ticks(1.1e9, 1.35e9, 3.0)),
-            ["1.1e9", "1.2e9", "1.3e9"]
-        );
-        // 600 decades with room for 12 ticks: every 50th decade.
-        let axis = Axis {
-            lo: 1e-300,
-            hi: 1e300,
-            log: true,
-        };
-        let t = labels(&axis_ticks(&axis, 12.0));
-        assert_eq!(t.len(), 13);
-        assert_eq!(t[..3], ["1e-300", "1e-250", "1e-200"]);
-        assert_eq!(log_label(5, -3), "0.005");
-        assert_eq!(log_label(2, 7), "2e7");
-    }
-
-    #[test]
-    fn axes_resolve_degenerate_ranges() {
-        let (a, fell_back) = resolve_axis(&[2.0, 2.0], false);
-        assert!(!fell_back && a.lo < 2.0 && a.hi > 2.0 && !a.log);
-        let (a, _) = resolve_axis(&[0.0], false);
-        assert_eq!((a.lo, a.hi), (-1.0, 1.0));
-        let (a, _) = resolve_axis(&[10.0], true);
-        assert!(a.log && (a.lo * a.hi - 100.0).abs() < 1e-9 && a.lo < 10.0);
-        let (a, fell_back) = resolve_axis(&[0.0, 3.0, 5.0], true);
-        assert!(fell_back && !a.log && a.lo < 0.0);
-        let (a, fell_back) = resolve_axis(&[], true);
-        assert!(!fell_back && a.log && a.lo == 1.0 && a.hi == 10.0);
     }
 
     #[test]

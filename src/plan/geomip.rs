@@ -11,7 +11,7 @@
 
 use std::collections::HashMap;
 
-use glam::DVec2;
+use glam::{DMat3, DVec2, DVec3};
 
 use crate::clipmap::draw_list::Sphere;
 use crate::geo::sphere;
@@ -100,20 +100,61 @@ impl GeomipState {
         let nadir = view.nadir();
         let cells = settings.patch_size - 1;
         let cols = settings.patches as usize;
+        let spacing = self.spacing_for(view.height_above_terrain_m);
+        let patch_m = cells as f64 * spacing;
+        let reach_m = 0.5 * cols as f64 * patch_m;
+        let frame = self.anchor(nadir, radius, patch_m, reach_m);
 
-        // Spacing with hysteresis: keep it while within a factor of two of the target.
-        let target = (SPACING_PER_HEIGHT * view.height_above_terrain_m.max(1e-3))
+        // The grid: cols × cols patches around the viewer's patch.
+        // The viewer on the plane (computed once: every patch's distance starts from it).
+        let pv = frame.plane_of(nadir).unwrap_or_default();
+        let v = pv / patch_m;
+        let lattice = Lattice {
+            frame,
+            spacing,
+            cells,
+            cols,
+            first: [
+                v.x.floor() as i64 - cols as i64 / 2,
+                v.y.floor() as i64 - cols as i64 / 2,
+            ],
+        };
+        let sight = Sight::of(view, pv, patch_m);
+        let (mut levels, visible, waiting) = self.levels(&lattice, &sight, settings, query);
+        restrict_levels(&mut levels, cols);
+        let (patches, outer_sides) = lattice.patches_in_view(&levels, &visible);
+        let mut plan = GeomipPlan {
+            frame,
+            spacing_m: spacing,
+            patches,
+            outer_sides,
+            square_m: lattice.square_m(),
+            waiting,
+            covered_rad: 0.0,
+            cut_reach_rad: 0.0,
+        };
+        plan.set_cut_angles(pv, radius);
+        plan
+    }
+
+    /// The finest spacing, kept while within a factor of two of the target (a power of two
+    /// near [`SPACING_PER_HEIGHT`] × the height) so that small changes of height leave the
+    /// lattice alone; a new spacing drops the anchor.
+    fn spacing_for(&mut self, height_above_terrain_m: f64) -> f64 {
+        let target = (SPACING_PER_HEIGHT * height_above_terrain_m.max(1e-3))
             .clamp(MIN_SPACING_M, MAX_SPACING_M);
         if !(self.spacing_m > 0.0 && target > 0.5 * self.spacing_m && target < 2.0 * self.spacing_m)
         {
             self.spacing_m = target.log2().round().exp2();
             self.frame = None;
         }
-        let spacing = self.spacing_m;
-        let patch_m = cells as f64 * spacing;
-        let reach_m = 0.5 * cols as f64 * patch_m;
+        self.spacing_m
+    }
 
-        // Anchor: moved by whole patches once the viewer is half the reach away.
+    /// The lattice's tangent frame, moved by whole patches once the viewer is half the reach
+    /// away from its anchor, so the lattice stays put on the ground; a moved frame drops the
+    /// cached δ (their corners name other patches now).
+    fn anchor(&mut self, nadir: DVec3, radius: f64, patch_m: f64, reach_m: f64) -> LocalFrame {
         let frame = match self.frame {
             Some(f) => match f.plane_of(nadir) {
                 Some(p) if p.x.abs().max(p.y.abs()) < 0.5 * reach_m => f,
@@ -126,79 +167,46 @@ impl GeomipState {
             self.cache.clear();
         }
         self.frame = Some(frame);
+        frame
+    }
 
-        // The grid: cols × cols patches around the viewer's patch.
-        // The viewer on the plane (computed once: every patch's distance starts from it).
-        let pv = frame.plane_of(nadir).unwrap_or_default();
-        let v = pv / patch_m;
-        let first = [
-            v.x.floor() as i64 - cols as i64 / 2,
-            v.y.floor() as i64 - cols as i64 / 2,
-        ];
-        let corner_of = |i: usize| {
-            [
-                (first[0] + (i % cols) as i64) * cells as i64,
-                (first[1] + (i / cols) as i64) * cells as i64,
-            ]
-        };
-        let plane = |c: [i64; 2], x: f64, y: f64| {
-            DVec2::new((c[0] as f64 + x) * spacing, (c[1] as f64 + y) * spacing)
-        };
-
-        let frustum = view.frustum();
-        let world_from_view = view.camera.view_frame().world_from_view;
-        let view_from_world = world_from_view.transpose();
-        let eye_world = nadir * (radius + view.camera.altitude_m);
-        let lambda = crate::geo::projection::focal_length_px(view.height_px, view.fov_y_rad);
-        let half_diag = patch_m * std::f64::consts::FRAC_1_SQRT_2;
-
+    /// Each patch's continuous level (-1 outside the frustum, 0 while its δ waits), whether
+    /// it is in view, and how many in view wait. δ is measured for patches new in view (or
+    /// come twice as close) within this frame's [`DELTA_BUDGET`], so no frame stalls.
+    fn levels(
+        &mut self,
+        lattice: &Lattice,
+        sight: &Sight,
+        settings: &GeomipSettings,
+        query: &dyn TerrainQuery,
+    ) -> (Vec<f64>, Vec<bool>, usize) {
+        let cols = lattice.cols;
         let mut levels = vec![-1.0; cols * cols];
         let mut visible = vec![false; cols * cols];
         let mut waiting = 0;
         let mut computed = 0;
         let started = std::time::Instant::now();
-        let n = settings.patch_size;
         for (i, level) in levels.iter_mut().enumerate() {
-            let c = corner_of(i);
-            let centre = frame.unit_at(plane(c, 0.5 * cells as f64, 0.5 * cells as f64));
+            let c = lattice.corner_of(i);
             let known = self.cache.get(&c).cloned();
-            let (lo, hi) = match &known {
-                Some(d) => (d.lo_m, d.hi_m),
-                None => query.height_bounds_near_m(centre, half_diag / radius),
-            };
-            let bound = Sphere {
-                centre_m: view_from_world * (centre * (radius + 0.5 * (lo + hi))),
-                radius_m: half_diag + 0.5 * (hi - lo) + 1e-3 * patch_m,
-            };
-            if !frustum.intersects(&bound) {
+            if !sight.sees(lattice, c, known.as_ref(), query) {
                 continue;
             }
             visible[i] = true;
             // Nearest point of the patch to the eye: the viewer's plane position clamped into
             // the square (at the height in the patch's range nearest the eye's, below).
-            let q = pv.clamp(plane(c, 0.0, 0.0), plane(c, cells as f64, cells as f64));
-            let nearest_u = frame.unit_at(q);
-            let arc = sphere::great_circle_distance_m(nearest_u, nadir, 1.0);
+            let cells = lattice.cells as f64;
+            let q = sight
+                .pv
+                .clamp(lattice.plane(c, 0.0, 0.0), lattice.plane(c, cells, cells));
+            let nearest_u = lattice.frame.unit_at(q);
+            let arc = sphere::great_circle_distance_m(nearest_u, sight.nadir, 1.0);
             let stale = known.as_ref().is_some_and(|d| arc < 0.5 * d.arc_rad);
             let data = match known {
                 Some(d) if !stale => d,
                 _ if computed < MIN_PATCHES_PER_FRAME || started.elapsed() < DELTA_BUDGET => {
                     computed += 1;
-                    let heights: Vec<f64> = (0..n * n)
-                        .map(|v| {
-                            let u = frame.unit_at(plane(c, (v % n) as f64, (v / n) as f64));
-                            query.height_drawn_m(u, sphere::great_circle_distance_m(u, nadir, 1.0))
-                        })
-                        .collect();
-                    let (lo, hi) = heights
-                        .iter()
-                        .fold((f64::MAX, f64::MIN), |(a, b), &h| (a.min(h), b.max(h)));
-                    let d = PatchData {
-                        deltas: patch_deltas(n, &heights),
-                        lo_m: lo,
-                        hi_m: hi,
-                        arc_rad: arc,
-                    };
+                    let d = measure_patch(lattice, c, settings.patch_size, sight.nadir, arc, query);
                     self.cache.insert(c, d.clone());
                     d
                 }
@@ -213,14 +221,7 @@ impl GeomipState {
                     continue;
                 }
             };
-            let h = view.camera.altitude_m.clamp(data.lo_m, data.hi_m);
-            let nearest = nearest_u * (radius + h);
-            *level = continuous_level(
-                &data.deltas,
-                (nearest - eye_world).length(),
-                lambda,
-                settings.tau_px,
-            );
+            *level = sight.level(&data, nearest_u, settings.tau_px);
         }
         if !settings.geomorph {
             // Without geomorphing a level switches whole: no tween factors.
@@ -228,39 +229,176 @@ impl GeomipState {
                 *l = l.floor();
             }
         }
-        restrict_levels(&mut levels, cols);
-        let borders = border_levels(&levels, cols);
+        (levels, visible, waiting)
+    }
+}
+
+impl GeomipPlan {
+    /// The angles the clipmap needs from the cut: the disc around the viewer it covers, and
+    /// the reach of its farthest corner (`pv` the viewer on the plane).
+    fn set_cut_angles(&mut self, pv: DVec2, radius: f64) {
+        let [clo, chi] = self.cut_m();
+        let inside = (pv - clo).min(chi - pv).min_element();
+        self.covered_rad = inside.max(0.0) / radius;
+        // The farthest corner of the cut, with a margin for the gnomonic map's stretch.
+        let far = (pv - clo).abs().max((chi - pv).abs()).length();
+        self.cut_reach_rad = 1.01 * far / radius;
+    }
+}
+
+/// This frame's lattice: `cols` × `cols` patches of `cells` × `cells` cells of `spacing`
+/// metres, the first at patch `first` of the tangent plane of `frame`.
+struct Lattice {
+    frame: LocalFrame,
+    spacing: f64,
+    cells: u32,
+    cols: usize,
+    first: [i64; 2],
+}
+
+impl Lattice {
+    /// Patch `i`'s lattice corner (units of the finest spacing), row by row.
+    fn corner_of(&self, i: usize) -> [i64; 2] {
+        let (cols, cells) = (self.cols, self.cells);
+        [
+            (self.first[0] + (i % cols) as i64) * cells as i64,
+            (self.first[1] + (i / cols) as i64) * cells as i64,
+        ]
+    }
+
+    /// The point `(x, y)` cells from corner `c` on the plane, metres from the anchor.
+    fn plane(&self, c: [i64; 2], x: f64, y: f64) -> DVec2 {
+        let spacing = self.spacing;
+        DVec2::new((c[0] as f64 + x) * spacing, (c[1] as f64 + y) * spacing)
+    }
+
+    /// The grid's square on the plane: min and max corner.
+    fn square_m(&self) -> [DVec2; 2] {
+        let (cols, cells) = (self.cols, self.cells as f64);
+        [
+            self.plane(self.corner_of(0), 0.0, 0.0),
+            self.plane(self.corner_of(cols * cols - 1), cells, cells),
+        ]
+    }
+
+    /// The patches in view with their (restricted) levels and border levels, and which of
+    /// their sides lie on the grid's outer edge (they carry a skirt there).
+    fn patches_in_view(&self, levels: &[f64], visible: &[bool]) -> (Vec<Patch>, Vec<[bool; 4]>) {
+        let cols = self.cols;
+        let borders = border_levels(levels, cols);
         let mut patches = Vec::new();
         let mut outer_sides = Vec::new();
         for i in (0..cols * cols).filter(|&i| visible[i]) {
             patches.push(Patch {
-                corner: corner_of(i),
+                corner: self.corner_of(i),
                 level: levels[i],
                 sides: borders[i],
             });
             let (x, y) = (i % cols, i / cols);
             outer_sides.push([y == 0, x + 1 == cols, y + 1 == cols, x == 0]);
         }
-        let mut plan = GeomipPlan {
-            frame,
-            spacing_m: spacing,
-            patches,
-            outer_sides,
-            square_m: [
-                plane(corner_of(0), 0.0, 0.0),
-                plane(corner_of(cols * cols - 1), cells as f64, cells as f64),
-            ],
-            waiting,
-            covered_rad: 0.0,
-            cut_reach_rad: 0.0,
+        (patches, outer_sides)
+    }
+}
+
+/// What every patch's culling and level take from the view, worked out once a frame.
+struct Sight {
+    frustum: crate::clipmap::draw_list::Frustum,
+    view_from_world: DMat3,
+    eye_world: DVec3,
+    /// The focal length, pixels.
+    lambda: f64,
+    altitude_m: f64,
+    radius: f64,
+    nadir: DVec3,
+    /// The viewer on the plane.
+    pv: DVec2,
+    patch_m: f64,
+    half_diag: f64,
+}
+
+impl Sight {
+    fn of(view: &ViewPlan, pv: DVec2, patch_m: f64) -> Self {
+        let radius = view.radius_m;
+        let nadir = view.nadir();
+        let world_from_view = view.camera.view_frame().world_from_view;
+        Self {
+            frustum: view.frustum(),
+            view_from_world: world_from_view.transpose(),
+            eye_world: nadir * (radius + view.camera.altitude_m),
+            lambda: crate::geo::projection::focal_length_px(view.height_px, view.fov_y_rad),
+            altitude_m: view.camera.altitude_m,
+            radius,
+            nadir,
+            pv,
+            patch_m,
+            half_diag: patch_m * std::f64::consts::FRAC_1_SQRT_2,
+        }
+    }
+
+    /// Whether patch `c`'s bounding sphere meets the frustum: its heights from `known` once
+    /// measured, from `query`'s bounds near it before.
+    fn sees(
+        &self,
+        lattice: &Lattice,
+        c: [i64; 2],
+        known: Option<&PatchData>,
+        query: &dyn TerrainQuery,
+    ) -> bool {
+        let (radius, half_diag) = (self.radius, self.half_diag);
+        let half = 0.5 * lattice.cells as f64;
+        let centre = lattice.frame.unit_at(lattice.plane(c, half, half));
+        let (lo, hi) = match known {
+            Some(d) => (d.lo_m, d.hi_m),
+            None => query.height_bounds_near_m(centre, half_diag / radius),
         };
-        let [clo, chi] = plan.cut_m();
-        let inside = (pv - clo).min(chi - pv).min_element();
-        plan.covered_rad = inside.max(0.0) / radius;
-        // The farthest corner of the cut, with a margin for the gnomonic map's stretch.
-        let far = (pv - clo).abs().max((chi - pv).abs()).length();
-        plan.cut_reach_rad = 1.01 * far / radius;
-        plan
+        let bound = Sphere {
+            centre_m: self.view_from_world * (centre * (radius + 0.5 * (lo + hi))),
+            radius_m: half_diag + 0.5 * (hi - lo) + 1e-3 * self.patch_m,
+        };
+        self.frustum.intersects(&bound)
+    }
+
+    /// The continuous level of a patch with `data`, from its nearest point to the eye
+    /// (`nearest_u`, at the height in the patch's range nearest the eye's).
+    fn level(&self, data: &PatchData, nearest_u: DVec3, tau_px: f64) -> f64 {
+        let h = self.altitude_m.clamp(data.lo_m, data.hi_m);
+        let nearest = nearest_u * (self.radius + h);
+        continuous_level(
+            &data.deltas,
+            (nearest - self.eye_world).length(),
+            self.lambda,
+            tau_px,
+        )
+    }
+}
+
+/// Patch `c`'s δ_k and height range from its `n` × `n` heights as drawn, measured at `arc`
+/// (radians) from the viewer: the terrain function is asked once per patch, not per frame.
+fn measure_patch(
+    lattice: &Lattice,
+    c: [i64; 2],
+    n: u32,
+    nadir: DVec3,
+    arc: f64,
+    query: &dyn TerrainQuery,
+) -> PatchData {
+    let heights: Vec<f64> = (0..n * n)
+        .map(|v| {
+            let u = lattice
+                .frame
+                .unit_at(lattice.plane(c, (v % n) as f64, (v / n) as f64));
+            query.height_drawn_m(u, sphere::great_circle_distance_m(u, nadir, 1.0))
+        })
+        .collect();
+    let (lo, hi) = heights
+        .iter()
+        .fold((f64::MAX, f64::MIN), |(a, b), &h| (a.min(h), b.max(h)));
+    PatchData {
+        deltas: patch_deltas(n, &heights),
+        lo_m: lo,
+        hi_m: hi,
+        arc_rad: arc,
     }
 }
 

@@ -331,101 +331,33 @@ pub fn run(
         terrain.radius_m(),
         |lat, lon| terrain.height_at_lat_lon_m(lat, lon),
     );
-    let make = |stream: StreamSettings| -> Result<TerrainRenderer, BenchError> {
-        let mut r = TerrainRenderer::with_streaming(
-            &ctx.device,
-            options.settings.clone(),
-            terrain.clone(),
-            COLOR_FORMAT,
-            stream,
-        )?;
-        r.set_look(&ctx.device, options.look);
-        r.set_lod(&ctx.device, options.lod);
-        Ok(r)
-    };
-    let mut renderer = make(options.stream)?;
+    let mut renderer = soak_renderer(ctx, terrain, options, options.stream)?;
     // The reference reads without faults and holds only what its frame needs (cache 0), so
     // its memory stays out of the flying renderer's budget.
-    let mut reference = make(StreamSettings {
-        faults: FaultSettings::default(),
-        cache_bytes: 0,
-        ..options.stream
-    })?;
+    let reference = soak_renderer(
+        ctx,
+        terrain,
+        options,
+        StreamSettings {
+            faults: FaultSettings::default(),
+            cache_bytes: 0,
+            ..options.stream
+        },
+    )?;
     let target = OffscreenFrame::new(&ctx.device, options.width, options.height);
     let mut frames: Vec<SoakFrame> = Vec::new();
     let mut settles: Vec<SettlePoint> = Vec::new();
     let mut flown = 0.0f64;
     let mut reads_total = 0u64;
-    let mut settle =
-        |leg: usize, t_s: f64, camera: &Camera, renderer: &mut TerrainRenderer| -> SettlePoint {
-            let t = Instant::now();
-            let waited = renderer.settle_or_explain(
-                ctx,
-                camera,
-                options.width,
-                options.height,
-                options.settle_timeout,
-            );
-            let settle_s = t.elapsed().as_secs_f64();
-            let compared = waited.map_err(|e| e.to_string()).and_then(|()| {
-                let got = target
-                    .render_now(ctx, renderer, camera)
-                    .map_err(|e| e.to_string())?;
-                let want = target
-                    .render_settled_within(ctx, &mut reference, camera, options.settle_timeout)
-                    .map_err(|e| format!("the fault-free reference: {e}"))?;
-                let differing = pixels_differing(&got, &want);
-                let visibly = pixels_differing_by_more_than(&got, &want, VISIBLE_CHANNEL_DIFF);
-                let mut mismatch = None;
-                if differing > 0 {
-                    let mut fresh = make(StreamSettings {
-                        faults: FaultSettings::default(),
-                        ..StreamSettings::default()
-                    })
-                    .map_err(|e| e.to_string())?;
-                    let third = target
-                        .render_settled_within(ctx, &mut fresh, camera, options.settle_timeout)
-                        .map_err(|e| format!("a fresh renderer: {e}"))?;
-                    let frames = [&got, &want, &third];
-                    mismatch = Some(Mismatch {
-                        fresh_vs_flying_px: pixels_differing(&third, &got),
-                        fresh_vs_reference_px: pixels_differing(&third, &want),
-                        triangles: frames.map(|f| f.info.triangles()),
-                        levels: frames
-                            .map(|f| (f.info.selection.coarsest, f.info.selection.finest)),
-                        height_above_terrain_m: frames.map(|f| f.info.height_above_terrain_m),
-                    });
-                    if let Some(dir) = &options.mismatch_dir {
-                        for (frame, who) in frames.iter().zip(["flying", "reference", "fresh"]) {
-                            let png = dir.join(format!("settle-{leg:03}-{who}.png"));
-                            frame
-                                .save_png(&png)
-                                .map_err(|e| format!("cannot write {}: {e}", png.display()))?;
-                        }
-                    }
-                }
-                Ok((differing, visibly, mismatch))
-            });
-            SettlePoint {
-                t_s,
-                wall_s: started.elapsed().as_secs_f64(),
-                leg,
-                place: path.legs()[leg].to.place,
-                camera: [
-                    camera.lat_deg,
-                    camera.lon_deg,
-                    camera.altitude_m,
-                    camera.heading_deg,
-                    camera.pitch_deg,
-                ],
-                settle_s,
-                settled: compared.is_ok(),
-                differing_px: compared.as_ref().ok().map(|c| c.0),
-                visibly_differing_px: compared.as_ref().ok().map(|c| c.1),
-                mismatch: compared.as_ref().ok().and_then(|c| c.2.clone()),
-                error: compared.err(),
-            }
-        };
+    let mut stops = Settler {
+        ctx,
+        terrain,
+        options,
+        target: &target,
+        reference,
+        started,
+        path: &path,
+    };
     let mut next_start = Instant::now();
     loop {
         // Every leg that ended gets its settle point, at its end's view.
@@ -433,7 +365,7 @@ pub fn run(
         if done < path.legs().len() && path.legs()[done].end_s() <= flown.min(options.seconds) {
             let leg = &path.legs()[done];
             let camera = leg.camera_at(1.0);
-            settles.push(settle(done, leg.end_s(), &camera, &mut renderer));
+            settles.push(stops.settle(done, leg.end_s(), &camera, &mut renderer));
             continue;
         }
         if flown >= options.seconds {
@@ -447,31 +379,9 @@ pub fn run(
             next_start = next_start.max(now) + dt;
         }
         let clock = Instant::now();
-        let (leg, camera) = path.camera(flown);
-        let reads_before = frame_reads::reads_in_frames_on_this_thread();
-        let f = target.draw_timed(ctx, &mut renderer, &camera, None)?;
-        let reads_in_frame = frame_reads::reads_in_frames_on_this_thread() - reads_before;
-        reads_total += reads_in_frame;
-        let s = f.info.stream.clone().unwrap_or_default();
-        frames.push(SoakFrame {
-            t_s: flown,
-            wall_s: started.elapsed().as_secs_f64(),
-            leg,
-            altitude_m: camera.altitude_m,
-            cpu_ms: f.cpu_ms,
-            frame_ms: f.frame_ms,
-            reads_in_frame,
-            rss: Rss::now(),
-            cache_bytes: s.cache_bytes,
-            cache_budget: s.cache_budget,
-            cache_kept_bytes: s.cache_kept_bytes,
-            gpu_tiles: s.gpu_tiles,
-            gpu_capacity: s.gpu_capacity,
-            tiles_loaded: s.stream.tiles_loaded,
-            tiles_failed: s.stream.tiles_failed,
-            retries: s.stream.retries,
-            levels_waiting: f.info.selection.waiting().len() as u32,
-        });
+        let frame = fly_frame(ctx, &target, &mut renderer, &path, flown, started)?;
+        reads_total += frame.reads_in_frame;
+        frames.push(frame);
         flown += clock.elapsed().as_secs_f64();
         progress(&SoakProgress {
             t_s: flown.min(options.seconds),
@@ -485,7 +395,7 @@ pub fn run(
     // The view where the flight stopped, mid-leg: one more settle point.
     if settles.len() < path.legs().len() {
         let (leg, camera) = path.camera(options.seconds);
-        settles.push(settle(leg, options.seconds, &camera, &mut renderer));
+        settles.push(stops.settle(leg, options.seconds, &camera, &mut renderer));
     }
     Ok(SoakRun {
         adapter: ctx.adapter_description(),
@@ -495,6 +405,187 @@ pub fn run(
         settles,
         wall_s: started.elapsed().as_secs_f64(),
     })
+}
+
+/// A renderer as the soak configures all three of its kinds (flying, reference, fresh):
+/// the same terrain, clipmap, look and LOD, reading through `stream`.
+fn soak_renderer(
+    ctx: &GpuContext,
+    terrain: &Terrain,
+    options: &SoakOptions,
+    stream: StreamSettings,
+) -> Result<TerrainRenderer, BenchError> {
+    let mut r = TerrainRenderer::with_streaming(
+        &ctx.device,
+        options.settings.clone(),
+        terrain.clone(),
+        COLOR_FORMAT,
+        stream,
+    )?;
+    r.set_look(&ctx.device, options.look);
+    r.set_lod(&ctx.device, options.lod);
+    Ok(r)
+}
+
+/// One frame of the flight at soak time `flown`, with what it read and what it held: a frame
+/// that reads the file or a budget that creeps shows here first.
+fn fly_frame(
+    ctx: &GpuContext,
+    target: &OffscreenFrame,
+    renderer: &mut TerrainRenderer,
+    path: &SoakPath,
+    flown: f64,
+    started: Instant,
+) -> Result<SoakFrame, BenchError> {
+    let (leg, camera) = path.camera(flown);
+    let reads_before = frame_reads::reads_in_frames_on_this_thread();
+    let f = target.draw_timed(ctx, renderer, &camera, None)?;
+    let reads_in_frame = frame_reads::reads_in_frames_on_this_thread() - reads_before;
+    let s = f.info.stream.clone().unwrap_or_default();
+    Ok(SoakFrame {
+        t_s: flown,
+        wall_s: started.elapsed().as_secs_f64(),
+        leg,
+        altitude_m: camera.altitude_m,
+        cpu_ms: f.cpu_ms,
+        frame_ms: f.frame_ms,
+        reads_in_frame,
+        rss: Rss::now(),
+        cache_bytes: s.cache_bytes,
+        cache_budget: s.cache_budget,
+        cache_kept_bytes: s.cache_kept_bytes,
+        gpu_tiles: s.gpu_tiles,
+        gpu_capacity: s.gpu_capacity,
+        tiles_loaded: s.stream.tiles_loaded,
+        tiles_failed: s.stream.tiles_failed,
+        retries: s.stream.retries,
+        levels_waiting: f.info.selection.waiting().len() as u32,
+    })
+}
+
+/// What a settle point needs besides the flying renderer: the fault-free reference it is
+/// compared with, and what to make a fresh renderer from when they differ.
+struct Settler<'a> {
+    ctx: &'a GpuContext,
+    terrain: &'a Terrain,
+    options: &'a SoakOptions,
+    target: &'a OffscreenFrame,
+    reference: TerrainRenderer,
+    started: Instant,
+    path: &'a SoakPath,
+}
+
+impl Settler<'_> {
+    /// The flying renderer waits at `camera` until its view is complete, and its frame is
+    /// compared with the reference's; a failure is recorded, not returned.
+    fn settle(
+        &mut self,
+        leg: usize,
+        t_s: f64,
+        camera: &Camera,
+        renderer: &mut TerrainRenderer,
+    ) -> SettlePoint {
+        let options = self.options;
+        let t = Instant::now();
+        let waited = renderer.settle_or_explain(
+            self.ctx,
+            camera,
+            options.width,
+            options.height,
+            options.settle_timeout,
+        );
+        let settle_s = t.elapsed().as_secs_f64();
+        let compared = waited
+            .map_err(|e| e.to_string())
+            .and_then(|()| self.compare(leg, camera, renderer));
+        SettlePoint {
+            t_s,
+            wall_s: self.started.elapsed().as_secs_f64(),
+            leg,
+            place: self.path.legs()[leg].to.place,
+            camera: [
+                camera.lat_deg,
+                camera.lon_deg,
+                camera.altitude_m,
+                camera.heading_deg,
+                camera.pitch_deg,
+            ],
+            settle_s,
+            settled: compared.is_ok(),
+            differing_px: compared.as_ref().ok().map(|c| c.0),
+            visibly_differing_px: compared.as_ref().ok().map(|c| c.1),
+            mismatch: compared.as_ref().ok().and_then(|c| c.2.clone()),
+            error: compared.err(),
+        }
+    }
+
+    /// The settled flying frame against the reference's: pixels differing, pixels differing
+    /// visibly, and where they differ at all, what a third renderer says.
+    fn compare(
+        &mut self,
+        leg: usize,
+        camera: &Camera,
+        renderer: &mut TerrainRenderer,
+    ) -> Result<(usize, usize, Option<Mismatch>), String> {
+        let (ctx, target, timeout) = (self.ctx, self.target, self.options.settle_timeout);
+        let got = target
+            .render_now(ctx, renderer, camera)
+            .map_err(|e| e.to_string())?;
+        let want = target
+            .render_settled_within(ctx, &mut self.reference, camera, timeout)
+            .map_err(|e| format!("the fault-free reference: {e}"))?;
+        let differing = pixels_differing(&got, &want);
+        let visibly = pixels_differing_by_more_than(&got, &want, VISIBLE_CHANNEL_DIFF);
+        let mut mismatch = None;
+        if differing > 0 {
+            mismatch = Some(self.third_opinion(leg, camera, &got, &want)?);
+        }
+        Ok((differing, visibly, mismatch))
+    }
+
+    /// A fresh renderer (fault-free, default budgets) renders the view too: whichever of the
+    /// two long-lived renderers it disagrees with carries state from its history. The three
+    /// images are written to [`SoakOptions::mismatch_dir`] when it is set.
+    fn third_opinion(
+        &self,
+        leg: usize,
+        camera: &Camera,
+        got: &RenderedFrame,
+        want: &RenderedFrame,
+    ) -> Result<Mismatch, String> {
+        let options = self.options;
+        let mut fresh = soak_renderer(
+            self.ctx,
+            self.terrain,
+            options,
+            StreamSettings {
+                faults: FaultSettings::default(),
+                ..StreamSettings::default()
+            },
+        )
+        .map_err(|e| e.to_string())?;
+        let third = self
+            .target
+            .render_settled_within(self.ctx, &mut fresh, camera, options.settle_timeout)
+            .map_err(|e| format!("a fresh renderer: {e}"))?;
+        let frames = [got, want, &third];
+        let mismatch = Mismatch {
+            fresh_vs_flying_px: pixels_differing(&third, got),
+            fresh_vs_reference_px: pixels_differing(&third, want),
+            triangles: frames.map(|f| f.info.triangles()),
+            levels: frames.map(|f| (f.info.selection.coarsest, f.info.selection.finest)),
+            height_above_terrain_m: frames.map(|f| f.info.height_above_terrain_m),
+        };
+        if let Some(dir) = &options.mismatch_dir {
+            for (frame, who) in frames.iter().zip(["flying", "reference", "fresh"]) {
+                let png = dir.join(format!("settle-{leg:03}-{who}.png"));
+                frame
+                    .save_png(&png)
+                    .map_err(|e| format!("cannot write {}: {e}", png.display()))?;
+            }
+        }
+        Ok(mismatch)
+    }
 }
 
 fn quantile(sorted: &[f64], q: f64) -> f64 {
