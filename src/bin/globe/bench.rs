@@ -1,14 +1,18 @@
 //! `globe bench`: a scene, a view, the `flight` path or the `jump`, timed frame by frame.
 
 use std::cell::RefCell;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
+use std::time::Duration;
 
 use anyhow::{Context, bail};
 use clap::Args;
+use globe::dem::remote::{RemoteStats, RemoteStore};
+use globe::instruments::bench::{BenchOptions, BenchRun};
 use globe::progress::Progress;
 use globe::render::GpuContext;
 use globe::scenes::{CAMERA_VIEW_NAME, CameraSpec};
+use globe::terrain::Terrain;
 
 use crate::args::*;
 use crate::render::*;
@@ -114,22 +118,7 @@ pub fn bench(args: &BenchArgs) -> anyhow::Result<ExitCode> {
             globe::instruments::soak::NAME
         );
     }
-    // Names are checked before the adapter starts; the library looks them up the same way.
-    let name = match args.camera {
-        Some(_) => CAMERA_VIEW_NAME,
-        None if is_flight => globe::scenes::flight::NAME,
-        None => {
-            globe::scenes::find(&args.scene)
-                .map_err(|e| {
-                    e.also_known(&[
-                        globe::scenes::flight::NAME,
-                        globe::instruments::bench::JUMP,
-                        globe::instruments::soak::NAME,
-                    ])
-                })?
-                .name
-        }
-    };
+    let name = view_name(args, is_flight)?;
     if args.frames == 0 {
         bail!("--frames must be at least 1");
     }
@@ -160,54 +149,13 @@ pub fn bench(args: &BenchArgs) -> anyhow::Result<ExitCode> {
             lod: args.lod.settings()?,
             compare_plain_look: args.plain_look,
             compare_vertex_stage: args.vertex_stage,
-            frame_interval: {
-                let default = if is_flight { 60.0 } else { 0.0 };
-                let fps = args.fps.unwrap_or(default);
-                if !(fps >= 0.0 && fps.is_finite()) {
-                    bail!("--fps must be 0 or more (got {fps})");
-                }
-                (fps > 0.0).then(|| std::time::Duration::from_secs_f64(1.0 / fps))
-            },
+            frame_interval: frame_interval(args.fps, is_flight)?,
         };
         let label = format!("{name} (latency {latency} ms)");
-        let progress = RefCell::new(Some(Progress::new(
-            label,
-            args.frames as u64,
-            Some("frames"),
-        )));
-        let mut measuring = MeasureProgress::default();
-        let mut on_measure = |done, total| {
-            // The frames are done once the measurement starts.
-            if let Some(p) = progress.borrow_mut().take() {
-                p.finish();
-            }
-            measuring.update(done, total)
-        };
-        let watch = globe::instruments::bench::MeasureWatch {
-            limit: measure_limit,
-            progress: &mut on_measure,
-        };
-        let on_frame = |done: usize, _| {
-            if let Some(p) = progress.borrow_mut().as_mut() {
-                p.set(done as u64)
-            }
-        };
-        let run = globe::instruments::bench::run_with(&ctx, &terrain, &options, on_frame, watch)
-            .map_err(|e| args.measure_limit.explain(e.into()))?;
-        if let Some(p) = progress.take() {
-            p.finish();
-        }
-        measuring.finish();
+        let run = run_with_progress(args, &ctx, &terrain, &options, label, measure_limit)?;
         print_file_changes("globe bench", run.last_stream());
         if let Some(path) = &args.csv {
-            let path = if latencies.len() > 1 {
-                let stem = path.file_stem().unwrap_or_default().to_string_lossy();
-                path.with_file_name(format!("{stem}-{latency}ms.csv"))
-            } else {
-                path.clone()
-            };
-            std::fs::write(&path, run.frames_csv())
-                .with_context(|| format!("cannot write {}", path.display()))?;
+            write_frames_csv(&run, path, latency, latencies.len() > 1)?;
         }
         if args.json {
             println!("{}", run.to_json());
@@ -215,43 +163,144 @@ pub fn bench(args: &BenchArgs) -> anyhow::Result<ExitCode> {
             print_bench(&run);
         }
         if let (Some(r), Some(b)) = (&remote, remote_before) {
-            let s = r.stats();
-            let used = s.tile_bytes_used - b.tile_bytes_used;
-            let asked = s.bytes_requested - b.bytes_requested;
-            eprintln!(
-                "  remote {}: {} requests ({} failed), {:.2} MiB requested for {:.2} MiB of {} tiles \
-                 (requested/used {:.3}); {} tiles from the disk cache, {} from memory, {} refused (CRC)",
-                r.url(),
-                s.requests - b.requests,
-                s.request_errors - b.request_errors,
-                asked as f64 / 1048576.0,
-                used as f64 / 1048576.0,
-                s.tiles_fetched - b.tiles_fetched,
-                if used > 0 {
-                    asked as f64 / used as f64
-                } else {
-                    0.0
-                },
-                s.disk_hits - b.disk_hits,
-                s.resident_hits - b.resident_hits,
-                s.rejected_tiles - b.rejected_tiles,
-            );
+            print_remote_use(r, &b);
         }
         runs.push(run);
     }
     if runs.len() > 1 {
-        let base = runs[0].cpu_ms().map(|s| s.0).unwrap_or(f64::NAN);
-        eprintln!("median CPU ms per frame against the first latency (same process):");
-        for r in &runs {
-            let cpu = r.cpu_ms().map(|s| s.0).unwrap_or(f64::NAN);
-            eprintln!(
-                "  latency {:>7} ms: {cpu:8.3} ms  ratio {:.3}",
-                latency_of(&r.options.stream.faults).to_string(),
-                cpu / base
-            );
-        }
+        print_latency_ratios(&runs);
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// The name the outputs give the view: names are checked before the adapter starts, so a
+/// misspelt scene fails at once; the library looks them up the same way.
+fn view_name(args: &BenchArgs, is_flight: bool) -> anyhow::Result<&'static str> {
+    Ok(match args.camera {
+        Some(_) => CAMERA_VIEW_NAME,
+        None if is_flight => globe::scenes::flight::NAME,
+        None => {
+            globe::scenes::find(&args.scene)
+                .map_err(|e| {
+                    e.also_known(&[
+                        globe::scenes::flight::NAME,
+                        globe::instruments::bench::JUMP,
+                        globe::instruments::soak::NAME,
+                    ])
+                })?
+                .name
+        }
+    })
+}
+
+/// `--fps` as the time between frame starts (None: back to back); the flight defaults to a
+/// viewer's 60 so that streaming gets the wall time a real flight gives it.
+fn frame_interval(fps: Option<f64>, is_flight: bool) -> anyhow::Result<Option<Duration>> {
+    let default = if is_flight { 60.0 } else { 0.0 };
+    let fps = fps.unwrap_or(default);
+    if !(fps >= 0.0 && fps.is_finite()) {
+        bail!("--fps must be 0 or more (got {fps})");
+    }
+    Ok((fps > 0.0).then(|| Duration::from_secs_f64(1.0 / fps)))
+}
+
+/// One run, with a progress bar over its frames that gives way to the error measurement's
+/// once that starts (the frames are done by then).
+fn run_with_progress(
+    args: &BenchArgs,
+    ctx: &GpuContext,
+    terrain: &Terrain,
+    options: &BenchOptions,
+    label: String,
+    measure_limit: Option<Duration>,
+) -> anyhow::Result<BenchRun> {
+    let progress = RefCell::new(Some(Progress::new(
+        label,
+        args.frames as u64,
+        Some("frames"),
+    )));
+    let mut measuring = MeasureProgress::default();
+    let mut on_measure = |done, total| {
+        // The frames are done once the measurement starts.
+        if let Some(p) = progress.borrow_mut().take() {
+            p.finish();
+        }
+        measuring.update(done, total)
+    };
+    let watch = globe::instruments::bench::MeasureWatch {
+        limit: measure_limit,
+        progress: &mut on_measure,
+    };
+    let on_frame = |done: usize, _| {
+        if let Some(p) = progress.borrow_mut().as_mut() {
+            p.set(done as u64)
+        }
+    };
+    let run = globe::instruments::bench::run_with(ctx, terrain, options, on_frame, watch)
+        .map_err(|e| args.measure_limit.explain(e.into()))?;
+    if let Some(p) = progress.take() {
+        p.finish();
+    }
+    measuring.finish();
+    Ok(run)
+}
+
+/// `--csv`: the run's frames, one file per latency when there are several (FILE-50ms.csv).
+fn write_frames_csv(
+    run: &BenchRun,
+    path: &Path,
+    latency: LatencyMs,
+    several: bool,
+) -> anyhow::Result<()> {
+    let path = if several {
+        let stem = path.file_stem().unwrap_or_default().to_string_lossy();
+        path.with_file_name(format!("{stem}-{latency}ms.csv"))
+    } else {
+        path.to_path_buf()
+    };
+    std::fs::write(&path, run.frames_csv())
+        .with_context(|| format!("cannot write {}", path.display()))
+}
+
+/// What a remote pyramid cost during one run (`before` its figures at the start): requests,
+/// bytes asked for against bytes used, and where the tiles came from.
+fn print_remote_use(r: &RemoteStore, b: &RemoteStats) {
+    let s = r.stats();
+    let used = s.tile_bytes_used - b.tile_bytes_used;
+    let asked = s.bytes_requested - b.bytes_requested;
+    eprintln!(
+        "  remote {}: {} requests ({} failed), {:.2} MiB requested for {:.2} MiB of {} tiles \
+         (requested/used {:.3}); {} tiles from the disk cache, {} from memory, {} refused (CRC)",
+        r.url(),
+        s.requests - b.requests,
+        s.request_errors - b.request_errors,
+        asked as f64 / 1048576.0,
+        used as f64 / 1048576.0,
+        s.tiles_fetched - b.tiles_fetched,
+        if used > 0 {
+            asked as f64 / used as f64
+        } else {
+            0.0
+        },
+        s.disk_hits - b.disk_hits,
+        s.resident_hits - b.resident_hits,
+        s.rejected_tiles - b.rejected_tiles,
+    );
+}
+
+/// With several latencies, each run's median CPU time against the first's: runs in one
+/// process compare where runs in two would not.
+fn print_latency_ratios(runs: &[BenchRun]) {
+    let base = runs[0].cpu_ms().map(|s| s.0).unwrap_or(f64::NAN);
+    eprintln!("median CPU ms per frame against the first latency (same process):");
+    for r in runs {
+        let cpu = r.cpu_ms().map(|s| s.0).unwrap_or(f64::NAN);
+        eprintln!(
+            "  latency {:>7} ms: {cpu:8.3} ms  ratio {:.3}",
+            latency_of(&r.options.stream.faults).to_string(),
+            cpu / base
+        );
+    }
 }
 
 pub fn print_bench(run: &globe::instruments::bench::BenchRun) {

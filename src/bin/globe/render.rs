@@ -2,15 +2,20 @@
 
 use std::path::PathBuf;
 use std::process::ExitCode;
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 use anyhow::{Context, bail};
 use clap::Args;
+use globe::clipmap::ClipmapSettings;
 use globe::clipmap::selection::LevelStatus;
+use globe::geo::camera::Camera;
+use globe::plan::LodSettings;
 use globe::render::formats::COLOR_FORMAT;
-use globe::render::offscreen::OffscreenFrame;
+use globe::render::offscreen::{OffscreenFrame, RenderedFrame};
 use globe::render::{GpuContext, TerrainRenderer};
 use globe::scenes::CameraSpec;
+use globe::stream::StreamSettings;
+use globe::terrain::Terrain;
 
 use crate::args::*;
 use crate::scenes::*;
@@ -67,64 +72,39 @@ pub struct RenderArgs {
 
 pub fn render(args: &RenderArgs) -> anyhow::Result<ExitCode> {
     let (name, view) = chosen_view(args.scene.as_deref().unwrap_or_default(), args.camera)?;
-    if args.width == 0 || args.height == 0 || args.width > 16384 || args.height > 16384 {
-        bail!(
-            "--width and --height must be between 1 and 16384 (got {}×{})",
-            args.width,
-            args.height
-        );
-    }
-    let settings = args.mesh.settings()?;
-    let lod = args.lod.settings()?;
-    let stream = args.stream.settings()?;
-    let measure_limit = args.measure_limit.limit()?;
-    let settle_timeout = match args.settle_timeout_s {
-        s if s >= 0.0 && s.is_finite() => std::time::Duration::from_secs_f64(s),
-        s => bail!("--settle-timeout must be a number of seconds (got {s})"),
-    };
+    let checked = RenderSettings::of(args)?;
     let started = Instant::now();
     let ctx = GpuContext::headless().context("cannot render without a graphics adapter")?;
     eprintln!("adapter: {}", ctx.adapter_description());
     let terrain = args.dem.open()?;
     eprintln!("terrain: {}", terrain.describe());
-    let mut renderer =
-        TerrainRenderer::with_streaming(&ctx.device, settings, terrain, COLOR_FORMAT, stream)?;
+    let mut renderer = TerrainRenderer::with_streaming(
+        &ctx.device,
+        checked.settings,
+        terrain,
+        COLOR_FORMAT,
+        checked.stream,
+    )?;
     renderer.overlays.levels = args.overlay == Some(Overlay::Levels);
     renderer.set_wireframe(&ctx.device, args.overlay == Some(Overlay::Wireframe));
     renderer.set_look(&ctx.device, args.look.settings());
-    renderer.set_lod(&ctx.device, lod);
+    renderer.set_lod(&ctx.device, checked.lod);
     let camera = view.camera(|lat, lon| renderer.terrain_height_m(lat, lon));
     let target = OffscreenFrame::new(&ctx.device, args.width, args.height);
     let mut frame = if args.no_wait {
         target.render_now(&ctx, &mut renderer, &camera)?
     } else {
-        target.render_settled_within(&ctx, &mut renderer, &camera, settle_timeout)?
+        target.render_settled_within(&ctx, &mut renderer, &camera, checked.settle_timeout)?
     };
     print_file_changes("globe render", frame.info.stream.as_ref());
     if args.measure {
-        let mut progress = MeasureProgress::default();
-        let measured = globe::measure::evaluate_within(
+        print_error(
+            args,
             &frame,
             &camera,
             &renderer.terrain,
-            measure_limit,
-            |done, total| progress.update(done, total),
-        )
-        .map_err(|e| args.measure_limit.explain(e.into()))?;
-        progress.finish();
-        let e = measured;
-        let coverage = e.coverage.unwrap_or_default();
-        eprintln!(
-            "error: mean ρ {:.3} px, p99 {:.3} px, max {:.3} px over {} terrain px; {:.3} % above {} px; coverage mismatches {} px (reference: {:.1} march steps per pixel)",
-            e.mean_px,
-            e.p99_px,
-            e.max_px,
-            e.pixels_measured,
-            100.0 * e.error_pixel_share,
-            e.threshold_px,
-            coverage.mismatched(),
-            coverage.reference_steps as f64 / coverage.compared.max(1) as f64
-        );
+            checked.measure_limit,
+        )?;
     }
     if args.overlay == Some(Overlay::Error) {
         let rho = globe::measure::rho_image(&frame, &camera, &renderer.terrain);
@@ -134,6 +114,89 @@ pub fn render(args: &RenderArgs) -> anyhow::Result<ExitCode> {
         .save_png(&args.out)
         .with_context(|| format!("cannot write {}", args.out.display()))?;
 
+    print_frame_summary(args, &name, &camera, &frame);
+    eprintln!(
+        "wrote {} ({}×{}) in {:.2} s",
+        args.out.display(),
+        args.width,
+        args.height,
+        started.elapsed().as_secs_f64()
+    );
+    Ok(ExitCode::SUCCESS)
+}
+
+/// The arguments checked into what the renderer takes, all before the adapter starts, so a
+/// bad flag fails at once.
+struct RenderSettings {
+    settings: ClipmapSettings,
+    lod: LodSettings,
+    stream: StreamSettings,
+    measure_limit: Option<Duration>,
+    settle_timeout: Duration,
+}
+
+impl RenderSettings {
+    fn of(args: &RenderArgs) -> anyhow::Result<Self> {
+        if args.width == 0 || args.height == 0 || args.width > 16384 || args.height > 16384 {
+            bail!(
+                "--width and --height must be between 1 and 16384 (got {}×{})",
+                args.width,
+                args.height
+            );
+        }
+        let settings = args.mesh.settings()?;
+        let lod = args.lod.settings()?;
+        let stream = args.stream.settings()?;
+        let measure_limit = args.measure_limit.limit()?;
+        let settle_timeout = match args.settle_timeout_s {
+            s if s >= 0.0 && s.is_finite() => Duration::from_secs_f64(s),
+            s => bail!("--settle-timeout must be a number of seconds (got {s})"),
+        };
+        Ok(Self {
+            settings,
+            lod,
+            stream,
+            measure_limit,
+            settle_timeout,
+        })
+    }
+}
+
+/// `--measure`: the frame's error against the terrain function and the reference ray
+/// caster, on stderr.
+fn print_error(
+    args: &RenderArgs,
+    frame: &RenderedFrame,
+    camera: &Camera,
+    terrain: &Terrain,
+    measure_limit: Option<Duration>,
+) -> anyhow::Result<()> {
+    let mut progress = MeasureProgress::default();
+    let measured =
+        globe::measure::evaluate_within(frame, camera, terrain, measure_limit, |done, total| {
+            progress.update(done, total)
+        })
+        .map_err(|e| args.measure_limit.explain(e.into()))?;
+    progress.finish();
+    let e = measured;
+    let coverage = e.coverage.unwrap_or_default();
+    eprintln!(
+        "error: mean ρ {:.3} px, p99 {:.3} px, max {:.3} px over {} terrain px; {:.3} % above {} px; coverage mismatches {} px (reference: {:.1} march steps per pixel)",
+        e.mean_px,
+        e.p99_px,
+        e.max_px,
+        e.pixels_measured,
+        100.0 * e.error_pixel_share,
+        e.threshold_px,
+        coverage.mismatched(),
+        coverage.reference_steps as f64 / coverage.compared.max(1) as f64
+    );
+    Ok(())
+}
+
+/// What was drawn, on stderr: the view, the levels and why the others were not, the ring
+/// densities, the triangles and draw calls, and the planar method's figures.
+fn print_frame_summary(args: &RenderArgs, name: &str, camera: &Camera, frame: &RenderedFrame) {
     let sel = &frame.info.selection;
     let count = |s: LevelStatus| sel.status.iter().filter(|x| **x == s).count();
     eprintln!(
@@ -196,14 +259,6 @@ pub fn render(args: &RenderArgs) -> anyhow::Result<ExitCode> {
         ),
         None => {}
     }
-    eprintln!(
-        "wrote {} ({}×{}) in {:.2} s",
-        args.out.display(),
-        args.width,
-        args.height,
-        started.elapsed().as_secs_f64()
-    );
-    Ok(ExitCode::SUCCESS)
 }
 
 /// Each change to the pyramid file the watcher reported during the run, once, on stderr.
