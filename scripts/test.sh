@@ -53,7 +53,16 @@ export GLOBE_REQUIRE_DATA=1
 # Mesa's device-select layer probes the display (and complains when this is unset) for GPU tests
 # that create their instance in-process; the `globe` binary switches that layer off itself.
 export XDG_RUNTIME_DIR="${XDG_RUNTIME_DIR:-$(mktemp -d)}"
-cargo test --workspace "$@"
+if [ $# -gt 0 ]; then
+    cargo test --workspace "$@"
+else
+    # The rendering tests one at a time, as when each had its own binary: their GPU work is
+    # serialised anyway (tests/common), and a CPU-heavy test beside one slows its streaming
+    # enough to show a settle race (docs/testing.md#the-test-binaries).
+    cargo test --workspace --lib --bins --test cpu --test formats --test cli --test fuzz --test globe_data
+    cargo test --test gpu -- --test-threads=1
+    cargo test --workspace --doc
+fi
 # The GPU-against-f64 tests once more with every builtin sin/cos as coarse as an NVIDIA GPU's
 # (shaders/common/trig.wgsl says why): a software adapter's builtins are exact to rounding, so
 # only this shows code that a real GPU would break.
