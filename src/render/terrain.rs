@@ -338,6 +338,11 @@ impl TerrainRenderer {
         })
     }
 
+    /// The projected grid covers the view this frame (its pipelines are built).
+    fn grid_drawn(&self) -> bool {
+        self.lod.mode == LodMode::Projgrid && self.grid_pipelines.is_some()
+    }
+
     /// The wireframe overlay's pipelines draw this frame.
     fn wire_drawn(&self) -> bool {
         self.overlays.wireframe && self.wire_pipelines.is_some() && !self.use_passthrough
@@ -775,7 +780,7 @@ impl TerrainRenderer {
         view: &ViewPlan,
         clipmap: &mut ClipmapPlan,
     ) -> Option<PlanarDraw> {
-        let grid_on = self.lod.mode == LodMode::Projgrid && self.grid_pipelines.is_some();
+        let grid_on = self.grid_drawn();
         let planar_on = self
             .lod
             .mode
@@ -804,7 +809,7 @@ impl TerrainRenderer {
     /// What the clipmap draws: the levels whose grids are held, their densities and the
     /// sectors in view (nothing where the projected grid covers the view).
     fn plan_draws(&self, view: &ViewPlan, clipmap: &mut ClipmapPlan) {
-        let grid_on = self.lod.mode == LodMode::Projgrid && self.grid_pipelines.is_some();
+        let grid_on = self.grid_drawn();
         clipmap.limit_to_held(&self.grids);
         clipmap.density_map = self.density_map;
         clipmap.density_caps = self.terrain.detail().map(|d| {
