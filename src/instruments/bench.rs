@@ -381,9 +381,9 @@ fn compare_still(
 ) -> Result<Compared, RenderError> {
     let mut compared = Compared::default();
     if options.passthrough {
-        renderer.use_passthrough = true;
+        renderer.switches.use_passthrough = true;
         compared.passthrough = rig.records_at(renderer, camera, options.frames)?;
-        renderer.use_passthrough = false;
+        renderer.switches.use_passthrough = false;
     }
     if options.compare_plain_look {
         renderer.set_look(&rig.ctx.device, LookSettings::plain());

@@ -9,15 +9,17 @@
 //!
 //! A frame's plan is one of each. Nothing here touches wgpu: tests build plans on a machine with no
 //! adapter. `render::gpu_data` is the one step that turns a plan into f32 GPU data, and the
-//! renderer only executes it (fills, uploads, draws). A close-up LOD method (geomipmapping, the
-//! projected grid) adds its own plan beside `clipmap`, built from the same [`ViewPlan`] and
-//! [`TerrainQuery`], and tells the clipmap how far its reach extends.
+//! renderer only executes it (fills, uploads, draws). Every LOD method is a [`LodMethod`]
+//! ([`lod`]): a close-up method (geomipmapping, the projected grid) adds its own plan beside
+//! `clipmap`, built from the same [`ViewPlan`] and [`TerrainQuery`], and tells the clipmap how
+//! far its reach extends.
 //!
 //! Conventions: angles in radians unless the name says `_deg`; lengths in metres; view space
 //! has the planet's centre at the origin and the viewer on +z̃ (spherical-clipmaps.md §3).
 
 pub mod clipmap;
 pub mod geomip;
+pub mod lod;
 pub mod projgrid;
 
 use std::f64::consts::TAU;
@@ -28,9 +30,11 @@ use crate::geo::camera::Camera;
 use crate::geo::{projection, sphere};
 use crate::planar::projgrid::CellBounds;
 use crate::terrain::Terrain;
+use crate::terrain::at_hand::TilesAtHand;
 
 pub use clipmap::{ClipmapPlan, LevelFill};
 pub use geomip::{GeomipPlan, GeomipState};
+pub use lod::{CloseUpPlan, LodMethod};
 pub use projgrid::ProjGridPlan;
 
 /// Which LOD method draws the ground near the viewer (`--mode`).
@@ -103,8 +107,8 @@ pub enum HeightSource {
 }
 
 /// The terrain questions a frame plan asks, answered either by the terrain function
-/// ([`Terrain`]) or, while streaming, by the tiles at hand (`render::dem_feed::DemFeed`), so
-/// the render thread never waits for the file.
+/// ([`Terrain`]) or, while streaming, by the tiles at hand ([`TilesAtHand`]), so the render
+/// thread never waits for the file.
 pub trait TerrainQuery {
     fn radius_m(&self) -> f64;
     /// Lowest and highest terrain anywhere (the horizon bound, eq. 6).
@@ -198,6 +202,42 @@ impl TerrainQuery for Terrain {
             .detail()
             .map_or(0.0, |d| d.height_m(u, d.lambda_at_angle(arc_rad)));
         crate::terrain::with_water(base + detail, self.water_level_m())
+    }
+}
+
+/// The frame plan's terrain questions, answered from the tiles at hand (never the file).
+impl TerrainQuery for TilesAtHand {
+    fn radius_m(&self) -> f64 {
+        self.dem().radius_m()
+    }
+    fn height_range_m(&self) -> (f64, f64) {
+        TilesAtHand::height_range_m(self)
+    }
+    fn ground_m(&self, lat_deg: f64, lon_deg: f64) -> (f64, HeightSource) {
+        let (h, fell_back) = TilesAtHand::ground_m(self, lat_deg, lon_deg);
+        let source = if fell_back {
+            HeightSource::CoarserTiles
+        } else {
+            HeightSource::Tiles
+        };
+        (h, source)
+    }
+    fn height_drawn_m(&self, u: DVec3, arc_rad: f64) -> f64 {
+        TilesAtHand::height_drawn_m(self, u, arc_rad)
+    }
+    fn cell_bounds_m(&self, u: DVec3, angle_rad: f64, arc_rad: f64) -> CellBounds {
+        let cap = self.dem().drawn_cap_rad(angle_rad, arc_rad);
+        let range = self.dem_bounds_near_m(u, cap);
+        dem_cell_bounds(
+            self.dem(),
+            self.detail().map(|d| d.as_ref()),
+            self.water_level_m(),
+            (u, cap, arc_rad),
+            range,
+        )
+    }
+    fn height_bounds_near_m(&self, u: DVec3, angle_rad: f64) -> (f64, f64) {
+        TilesAtHand::height_bounds_near_m(self, u, angle_rad)
     }
 }
 

@@ -3,11 +3,10 @@
 //! levels first, then finer ones nearest the viewer), uploads arrived tiles into the GPU tile
 //! cache within a per-frame budget, and fills a level only when every tile it needs is there.
 //!
-//! The render thread never touches the file: the camera's height and the culling bounds are
-//! read from the decoded tiles at hand, falling back to coarser levels (whose min/max still
-//! bound the terrain) until the finer tiles arrive.
+//! The render thread never touches the file: the plan's questions (the camera's height, the
+//! culling bounds) are answered from the decoded tiles at hand (`terrain::at_hand`), and the
+//! tiles those questions missed are asked for here, with the levels' own.
 
-use std::cell::RefCell;
 use std::collections::{HashMap, HashSet, VecDeque};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -17,22 +16,21 @@ use glam::DVec3;
 use crate::clipmap::levels::{GridRect, LevelGrid};
 use crate::clipmap::settings::level_outer_theta_rad;
 use crate::dem::FileChange;
-use crate::dem::pyramid::{CodeFn, Plane};
 use crate::geo::sphere;
-use crate::plan::{HeightSource, LevelFill, TerrainQuery};
-use crate::planar::projgrid::CellBounds;
+use crate::plan::LevelFill;
+use crate::procedural::Detail;
 use crate::stream::open_source;
 use crate::stream::{
-    Completion, Priority, StreamSettings, StreamStats, TileCache, TileData, TileKey, TileStreamer,
+    Completion, Priority, StreamSettings, StreamStats, TileData, TileKey, TileStreamer,
 };
-use crate::terrain::{DemTerrain, bounds_with_water, with_water};
-
-use crate::procedural::Detail;
+use crate::terrain::DemTerrain;
+use crate::terrain::at_hand::{BOUNDS_PRIORITY, TilesAtHand};
 
 use super::RenderError;
 use super::detail::DetailResources;
+use super::fill_dem::DemFillPass;
 use super::gpu_data::{DemFillJob, DemFillParams};
-use super::tiles::{DemFillPass, GpuTileCache};
+use super::tiles::GpuTileCache;
 
 /// The levels whose DEM fill starts from each block's corner (`DemFillJob::anchor_height_m`):
 /// those seen from at most this far (a quarter of their diameter, metres). Farther, the
@@ -117,23 +115,13 @@ impl std::fmt::Display for GpuTilesShort {
 
 /// The DEM's streaming pipeline, owned by the terrain renderer.
 pub struct DemFeed {
-    dem: DemTerrain,
+    /// The decoded tiles and what the plan's questions of them touched and missed.
+    tiles: TilesAtHand,
     streamer: TileStreamer,
-    cache: TileCache,
     gpu: GpuTileCache,
     fill: DemFillPass,
     settings: StreamSettings,
     frame: u64,
-    /// Tiles the CPU queries (camera height, bounds) found missing since the last update.
-    aux_missing: RefCell<HashMap<TileKey, Priority>>,
-    /// Whether this frame's camera height came from a coarser level than the finest (its tile
-    /// was missing): such a frame is not settled, whatever has arrived since.
-    fell_back: std::cell::Cell<bool>,
-    /// Tiles the CPU queries read since the last update (promoted in the LRU there).
-    touched: RefCell<Vec<TileKey>>,
-    /// Tiles the camera's ground read or missed since the last update: the LRU keeps them,
-    /// whatever its budget (a frame does not settle on a stand-in height).
-    critical: RefCell<HashSet<TileKey>>,
     /// What the LRU keeps beyond its budget until the next update: the last frame's critical
     /// tiles and its level tiles not yet on the GPU.
     keep: HashSet<TileKey>,
@@ -146,10 +134,6 @@ pub struct DemFeed {
     /// (when, bytes read then) of the last rate sample.
     rate_sample: (Instant, u64),
     read_mb_per_s: f64,
-    /// The procedural detail on top of the tiles (camera ground, bounds).
-    detail: Option<Arc<Detail>>,
-    /// The terrain's water level (`Terrain::water_level_m`): every answer is max(h, level).
-    water_level_m: Option<f64>,
 }
 
 /// A level's fill jobs and the pyramid tiles they read.
@@ -165,15 +149,10 @@ struct Admission {
     gpu_tiles_short: Option<GpuTilesShort>,
 }
 
-/// Priority of the camera's own tile (its height picks the near plane and θ̃min).
-const CAMERA_PRIORITY: Priority = 0;
-/// Bounds tiles come after the levels' tiles of the same frame.
-const BOUNDS_PRIORITY: Priority = 1 << 62;
-
 impl DemFeed {
     /// The detail the camera's ground and the bounds add (the editor replaces it).
     pub fn set_detail(&mut self, detail: Option<Arc<Detail>>) {
-        self.detail = detail;
+        self.tiles.set_detail(detail);
     }
 
     pub fn new(
@@ -186,20 +165,15 @@ impl DemFeed {
         let source = open_source(dem.pyramid_arc(), settings.faults);
         let streamer = TileStreamer::new(source, &settings).map_err(RenderError::StreamerStart)?;
         let gpu = GpuTileCache::new(device, dem.pyramid(), settings.gpu_tiles);
+        let mut tiles = TilesAtHand::new(dem, settings.cache_bytes);
+        tiles.set_detail(detail.detail().cloned());
         Ok(Self {
-            cache: TileCache::new(settings.cache_bytes),
+            tiles,
             gpu,
             fill: DemFillPass::new(device, fill_capacity, detail),
-            detail: detail.detail().cloned(),
-            water_level_m: None,
             streamer,
-            dem,
             settings,
             frame: 0,
-            aux_missing: RefCell::new(HashMap::new()),
-            fell_back: std::cell::Cell::new(false),
-            touched: RefCell::new(Vec::new()),
-            critical: RefCell::new(HashSet::new()),
             keep: HashSet::new(),
             errors: VecDeque::new(),
             file_change: None,
@@ -230,7 +204,7 @@ impl DemFeed {
 
     /// Sets the water level every terrain answer is raised to (`Terrain::water_level_m`).
     pub fn set_water_level(&mut self, level_m: Option<f64>) {
-        self.water_level_m = level_m;
+        self.tiles.set_water_level(level_m);
     }
 
     pub fn bind(&mut self, device: &wgpu::Device, heights: &wgpu::TextureView) {
@@ -241,109 +215,15 @@ impl DemFeed {
         &self.settings
     }
 
-    fn key(&self, level: usize, row: usize, col: usize) -> TileKey {
-        let t = self.dem.pyramid().tile_size();
-        TileKey {
-            level: level as u32,
-            tx: (col / t) as u32,
-            ty: (row / t) as u32,
-        }
+    /// The decoded tiles: what the frame's plan asks its terrain questions of.
+    pub fn tiles(&self) -> &TilesAtHand {
+        &self.tiles
     }
 
-    /// Runs `f` with a code reader over the decoded tiles; missing tiles are noted (with
-    /// `priority`) when `note` is true.
-    fn with_codes<R>(
-        &self,
-        note: bool,
-        priority: Priority,
-        critical: bool,
-        f: impl FnOnce(CodeFn<'_>) -> R,
-    ) -> R {
-        let t = self.dem.pyramid().tile_size();
-        // The last tile read: a query reads runs of codes from one tile, and a hash lookup
-        // (plus the bookkeeping below) per code was most of a projected grid's plan.
-        let last: std::cell::Cell<Option<(TileKey, &TileData)>> = std::cell::Cell::new(None);
-        let code = |level: usize, p: Plane, row: usize, col: usize| -> Option<i16> {
-            let key = self.key(level, row, col);
-            if let Some((k, tile)) = last.get()
-                && k == key
-            {
-                return Some(tile.code(p, col % t, row % t));
-            }
-            if critical {
-                self.critical.borrow_mut().insert(key);
-            }
-            match self.cache.peek(&key) {
-                Some(tile) => {
-                    self.touched.borrow_mut().push(key);
-                    last.set(Some((key, tile.as_ref())));
-                    Some(tile.code(p, col % t, row % t))
-                }
-                None => {
-                    if critical {
-                        self.fell_back.set(true);
-                    }
-                    if note {
-                        self.aux_missing.borrow_mut().insert(key, priority);
-                    }
-                    None
-                }
-            }
-        };
-        f(&code)
-    }
-
-    /// The terrain height at (lat, lon) from the finest level at hand (the finest level's tile
-    /// is asked for first); sea level before anything has arrived.
+    /// The terrain height at (lat, lon) from the finest level at hand (see
+    /// [`TilesAtHand::height_at_m`]).
     pub fn height_at_m(&self, lat_deg: f64, lon_deg: f64) -> f64 {
-        self.height_from_tiles_m(lat_deg, lon_deg, true)
-    }
-
-    /// The height a close-up mesh's vertex takes: as [`DemFeed::height_at_m`], but neither
-    /// asking for tiles nor holding them as the camera's own (the clipmap's levels ask for
-    /// what is drawn; a grid's tens of thousands of vertices are not the camera's ground).
-    fn height_drawn_base_m(&self, lat_deg: f64, lon_deg: f64) -> f64 {
-        self.height_from_tiles_m(lat_deg, lon_deg, false)
-    }
-
-    /// The height from the finest level at hand; `camera`: the camera's own ground (its
-    /// finest tile asked for, and held as critical).
-    fn height_from_tiles_m(&self, lat_deg: f64, lon_deg: f64, camera: bool) -> f64 {
-        for level in 0..self.dem.pyramid().level_count() {
-            let got = self.with_codes(camera && level == 0, CAMERA_PRIORITY, camera, |code| {
-                self.dem.sample_m_with(lat_deg, lon_deg, level, code)
-            });
-            if let Ok(h) = got {
-                return h;
-            }
-        }
-        0.0
-    }
-
-    /// Whether a CPU query (camera height, culling bounds) missed a tile since the last
-    /// [`DemFeed::update`]: the frame's culling, which runs after the update, used a coarser
-    /// level's bounds.
-    pub fn queries_missed(&self) -> bool {
-        !self.aux_missing.borrow().is_empty()
-    }
-
-    /// Terrain bounds within `angle_rad` of `u` (culling): from the level that
-    /// `DemTerrain::height_bounds_near_m` uses when its tiles are here, else from a coarser
-    /// level (its min/max bound every finer sample), else the global range.
-    pub fn height_bounds_near_m(&self, u: DVec3, angle_rad: f64) -> (f64, f64) {
-        let first = self.dem.bounds_level_at(u, angle_rad);
-        for level in first..self.dem.pyramid().level_count() {
-            // Coarser bounds still bound the terrain: culling stays conservative and the image
-            // the same, so a fallback here does not keep the frame from settling.
-            let got = self.with_codes(level == first, BOUNDS_PRIORITY, false, |code| {
-                self.dem
-                    .height_bounds_near_m_at_level_with(u, angle_rad, level, code)
-            });
-            if let Ok(b) = got {
-                return b;
-            }
-        }
-        self.dem.height_range_m()
+        self.tiles.height_at_m(lat_deg, lon_deg)
     }
 
     /// One frame: takes what the streamer delivered, uploads within the budget, fills the
@@ -361,13 +241,10 @@ impl DemFeed {
     ) -> (Vec<bool>, u64) {
         self.frame += 1;
         let frame = self.frame;
-        let mut touched = self.touched.take();
-        touched.sort_unstable();
-        touched.dedup();
+        let (touched, critical, aux) = self.tiles.take_marks();
         for key in &touched {
-            self.cache.promote(key);
+            self.tiles.cache.promote(key);
         }
-        let critical = self.critical.take();
 
         let nadir = sphere::unit_vector(nadir_phi_theta.0, nadir_phi_theta.1);
         let per_level = self.level_jobs(levels);
@@ -379,7 +256,6 @@ impl DemFeed {
         } = self.admit_levels(&per_level, nadir);
         // Tiles the CPU queries (camera height, culling bounds) missed: they are needed decoded,
         // in the LRU, even when a copy sits on the GPU (which the CPU cannot read).
-        let aux = self.aux_missing.take();
         for (&k, &p) in &aux {
             needed
                 .entry(k)
@@ -396,7 +272,7 @@ impl DemFeed {
             match done {
                 Completion::Loaded(tile) => {
                     let keep = &self.keep;
-                    self.cache.insert_keeping(tile, |k| keep.contains(k));
+                    self.tiles.cache.insert_keeping(tile, |k| keep.contains(k));
                 }
                 Completion::Failed(_, e) => self.note_error(&e.to_string()),
                 Completion::Cancelled(_) => {}
@@ -419,7 +295,7 @@ impl DemFeed {
             if on_gpu && !aux.contains_key(&k) {
                 continue;
             }
-            match self.cache.get(&k) {
+            match self.tiles.cache.get(&k) {
                 Some(tile) if !on_gpu && taken.contains(&k) => to_upload.push(tile),
                 Some(_) => {}
                 None => {
@@ -442,7 +318,7 @@ impl DemFeed {
         let to_upload_later = taken.iter().filter(|k| !gpu.contains(k));
         self.keep = critical.iter().chain(to_upload_later).copied().collect();
         let keep = &self.keep;
-        self.cache.trim_keeping(|k| keep.contains(k));
+        self.tiles.cache.trim_keeping(|k| keep.contains(k));
         if let Some(short) = gpu_tiles_short {
             self.note_error(&short.to_string());
         }
@@ -460,11 +336,11 @@ impl DemFeed {
             tiles_missing: missing.len() as u32,
             uploads,
             upload_backlog: (to_upload.len() - uploads as usize) as u32,
-            cache_bytes: self.cache.bytes(),
-            cache_budget: self.cache.budget(),
-            cache_kept_bytes: self.cache.bytes_kept(|k| self.keep.contains(k)),
-            cache_tiles: self.cache.len(),
-            cache_hit_rate: self.cache.hit_rate(),
+            cache_bytes: self.tiles.cache.bytes(),
+            cache_budget: self.tiles.cache.budget(),
+            cache_kept_bytes: self.tiles.cache.bytes_kept(|k| self.keep.contains(k)),
+            cache_tiles: self.tiles.cache.len(),
+            cache_hit_rate: self.tiles.cache.hit_rate(),
             gpu_tiles: self.gpu.resident_count(),
             gpu_capacity: self.gpu.capacity(),
             gpu_bytes_uploaded: self.gpu.bytes_uploaded,
@@ -486,9 +362,8 @@ impl DemFeed {
     fn level_jobs(&self, levels: &[LevelFill]) -> Vec<LevelJobs> {
         let mut per_level: Vec<LevelJobs> = Vec::new();
         for job in levels {
-            let level = self
-                .dem
-                .level_for_texel(job.grid.band_limit_texel_m(self.dem.radius_m()));
+            let dem = self.tiles.dem();
+            let level = dem.level_for_texel(job.grid.band_limit_texel_m(dem.radius_m()));
             let mut params = Vec::new();
             let mut tiles = Vec::new();
             for rect in &job.rects {
@@ -625,7 +500,7 @@ impl DemFeed {
         if let Some(done) = self.streamer.wait(timeout) {
             if let Completion::Loaded(tile) = done {
                 let keep = &self.keep;
-                self.cache.insert_keeping(tile, |k| keep.contains(k));
+                self.tiles.cache.insert_keeping(tile, |k| keep.contains(k));
             } else if let Completion::Failed(_, e) = done {
                 // The error names its tile.
                 self.note_error(&e.to_string());
@@ -635,8 +510,8 @@ impl DemFeed {
 
     /// Tile distance from the nadir in 1/1000 degree (lower is sooner).
     fn distance_rank(&self, k: TileKey, nadir: DVec3) -> u64 {
-        let g = self.dem.pyramid().grid(k.level as usize);
-        let t = self.dem.pyramid().tile_size() as f64;
+        let g = self.tiles.dem().pyramid().grid(k.level as usize);
+        let t = self.tiles.dem().pyramid().tile_size() as f64;
         let lat = g.lat_of_row((k.ty as f64 + 0.5) * t);
         let lon = g.lon_of_col((k.tx as f64 + 0.5) * t);
         let (phi, theta) = sphere::phi_theta_from_lat_lon_deg(lat.clamp(-90.0, 90.0), lon);
@@ -660,25 +535,6 @@ impl DemFeed {
         }
     }
 
-    /// The data's bilinear height at pixel `base` + `frac` of pyramid level `level` (f64, the
-    /// fill's own interpolation), if its four codes are at hand; columns wrap.
-    fn anchor_height_m(&self, level: usize, base: [i64; 2], frac: [f64; 2]) -> Option<f64> {
-        let pyr = self.dem.pyramid();
-        let cols = pyr.grid(level).cols as i64;
-        let enc = pyr.encoding();
-        self.with_codes(false, BOUNDS_PRIORITY, false, |code| {
-            let at = |dc: i64, dr: i64| {
-                let c = (base[0] + dc).rem_euclid(cols) as usize;
-                code(level, Plane::Avg, (base[1] + dr) as usize, c).map(f64::from)
-            };
-            let (a, b, c, d) = (at(0, 0)?, at(1, 0)?, at(0, 1)?, at(1, 1)?);
-            let (fc, fr) = (frac[0], frac[1]);
-            let top = a + fc * (b - a);
-            let bottom = c + fc * (d - c);
-            Some(enc.offset_m + enc.quantum_m * (top + fr * (bottom - top)))
-        })
-    }
-
     /// [`DemFeed::jobs_for_rect`] for a piece within one block: every parameter is computed
     /// at the block's corner `anchor`, so a texel's f32 arithmetic does not depend on which
     /// dispatch filled it (a settled view is the same whatever the path to it).
@@ -693,7 +549,7 @@ impl DemFeed {
     ) {
         let [ax, ay] = anchor;
         use std::f64::consts::PI;
-        let pyr = self.dem.pyramid();
+        let pyr = self.tiles.dem().pyramid();
         let g = pyr.grid(level);
         let west = pyr.extents().west_deg;
         let wraps = pyr.wraps();
@@ -708,7 +564,7 @@ impl DemFeed {
             (rect.gy0.max(0), end.min(south_row + 1), Fold::None),
             (rect.gy0.max(south_row + 1), end, Fold::South),
         ];
-        let [cap_n, cap_s] = self.dem.pole_caps(level);
+        let [cap_n, cap_s] = self.tiles.dem().pole_caps(level);
         let cap = |c: Option<crate::terrain::dem::PoleCap>, rows_to_pole: fn(f64) -> f64| {
             c.map_or([0.0, 0.0], |c| {
                 [rows_to_pole(c.row_lat_deg) / g.dlat_deg, c.height_m]
@@ -755,7 +611,8 @@ impl DemFeed {
                 // level seen from at most RELATIVE_FILL_REACH_M: the fill interpolates relative
                 // to the anchor, whose height the CPU gives.
                 let block = grid.anchor_block() as f64;
-                let quarter_m = 0.5 * level_outer_theta_rad(grid.level) * self.dem.radius_m();
+                let quarter_m =
+                    0.5 * level_outer_theta_rad(grid.level) * self.tiles.dem().radius_m();
                 let anchor_height_m = (wraps
                     && quarter_m <= RELATIVE_FILL_REACH_M
                     && matches!(fold, Fold::None)
@@ -766,7 +623,8 @@ impl DemFeed {
                     // At the anchor's f32 point, from which the shader adds frac_lo + k·step.
                     .then(|| {
                         let frac_f32 = frac.map(|f| f as f32 as f64);
-                        self.anchor_height_m(level, [base_col, row_floor as i64], frac_f32)
+                        self.tiles
+                            .bilinear_m(level, [base_col, row_floor as i64], frac_f32)
                     })
                     .flatten();
                 out.push(DemFillJob {
@@ -806,65 +664,6 @@ impl DemFeed {
                 span.push_tiles(level as u32, [cols, rows], t, wraps, tiles);
             }
         }
-    }
-}
-
-/// The frame plan's terrain questions, answered from the tiles at hand (never the file).
-impl TerrainQuery for DemFeed {
-    fn radius_m(&self) -> f64 {
-        self.dem.radius_m()
-    }
-    fn height_range_m(&self) -> (f64, f64) {
-        let (lo, hi) = self.dem.height_range_m();
-        let b = self.detail.as_ref().map_or(0.0, |d| {
-            d.amplitude_for_relief_m(d.roughness().max_relief_m())
-                * d.normalized_bound(d.lambda_full())
-        });
-        bounds_with_water((lo - b, hi + b), self.water_level_m)
-    }
-    fn ground_m(&self, lat_deg: f64, lon_deg: f64) -> (f64, HeightSource) {
-        self.fell_back.set(false);
-        let mut h = self.height_at_m(lat_deg, lon_deg);
-        if let Some(d) = &self.detail {
-            // The ground the camera stands on: every octave (the detail is exact on the CPU).
-            let (phi, theta) = sphere::phi_theta_from_lat_lon_deg(lat_deg, lon_deg);
-            h += d.height_m(sphere::unit_vector(phi, theta), d.lambda_full());
-        }
-        let source = if self.fell_back.get() {
-            HeightSource::CoarserTiles
-        } else {
-            HeightSource::Tiles
-        };
-        (with_water(h, self.water_level_m), source)
-    }
-    fn height_drawn_m(&self, u: DVec3, arc_rad: f64) -> f64 {
-        let (phi, theta) = (u.y.atan2(u.x), u.x.hypot(u.y).atan2(u.z));
-        let (lat, lon) = sphere::lat_lon_deg_from_phi_theta(phi, theta);
-        let base = self.height_drawn_base_m(lat, lon);
-        let detail = self
-            .detail
-            .as_ref()
-            .map_or(0.0, |d| d.height_m(u, d.lambda_at_angle(arc_rad)));
-        with_water(base + detail, self.water_level_m)
-    }
-    fn cell_bounds_m(&self, u: DVec3, angle_rad: f64, arc_rad: f64) -> CellBounds {
-        let cap = self.dem.drawn_cap_rad(angle_rad, arc_rad);
-        let range = DemFeed::height_bounds_near_m(self, u, cap);
-        crate::plan::dem_cell_bounds(
-            &self.dem,
-            self.detail.as_deref(),
-            self.water_level_m,
-            (u, cap, arc_rad),
-            range,
-        )
-    }
-    fn height_bounds_near_m(&self, u: DVec3, angle_rad: f64) -> (f64, f64) {
-        let (lo, hi) = DemFeed::height_bounds_near_m(self, u, angle_rad);
-        let b = self
-            .detail
-            .as_ref()
-            .map_or(0.0, |d| d.bounds_near(u, angle_rad, d.lambda_full()).0);
-        bounds_with_water((lo - b, hi + b), self.water_level_m)
     }
 }
 

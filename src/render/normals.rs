@@ -12,7 +12,7 @@ use glam::DVec3;
 use crate::clipmap::levels::{GridRect, LevelGrid};
 
 use super::dispatch::DispatchParams;
-use super::fill::FillJob;
+use super::fill_analytic::FillJob;
 use super::gpu_data::NormalParams;
 use super::shader;
 

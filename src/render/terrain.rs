@@ -14,58 +14,53 @@ use crate::clipmap::levels::LevelGrid;
 use crate::clipmap::{ClipmapSettings, RingMesh};
 use crate::geo::camera::Camera;
 use crate::look::{Atmosphere, LookSettings, SkyRing};
-use crate::plan::clipmap::DensityMap;
 use crate::plan::{
-    ClipmapPlan, GeomipState, HeightSource, LodMode, LodSettings, TerrainQuery, ViewPlan,
+    ClipmapPlan, CloseUpPlan, HeightSource, LodMethod, LodMode, LodSettings, TerrainQuery, ViewPlan,
 };
 use crate::stream::StreamSettings;
 use crate::terrain::{Base, Terrain};
 
 use super::RenderError;
 use super::dem_feed::DemFeed;
-use super::detail::DetailResources;
-use super::fill::{FillJob, FillPass};
+use super::fill_analytic::FillJob;
 use super::gpu_data::{self, BumpUniforms, FrameUniforms, LookUniforms};
 use super::look::LookResources;
-use super::normals::NormalPass;
 use super::placement::Placement;
 use super::planar::PlanarResources;
 use super::shader::MAX_LEVELS;
-use super::water_cull::WaterCull;
 
 pub use super::gpu_data::Overlays;
 
+mod draw;
 mod frame_info;
+mod passes;
 mod pipelines;
 mod readback;
 mod resources;
 mod shading;
+mod switches;
 
 pub use frame_info::FrameInfo;
 pub use readback::{LevelNormals, LevelPartials};
 pub use shading::{FAR_FOOTPRINT_M, Shading, bump_can_show, far_footprint_m};
 
 use frame_info::SETTLE_BOUNDS_GRACE;
+use passes::Passes;
 use pipelines::{ClipmapPipelines, GridPipelines, PipelineParts, PlanarPipelines, WirePipelines};
 use resources::{FrameBuffers, LevelTextures};
+pub use switches::Switches;
 
 pub struct TerrainRenderer {
     pub settings: ClipmapSettings,
     pub terrain: Terrain,
     pub overlays: Overlays,
-    /// Debug: draw every level of the mesh regardless of the visibility bounds (tests use it to
-    /// show that the levels the bounds skip contribute nothing to the image).
-    pub draw_all_levels: bool,
-    /// Debug: draw every sector, including those outside the frustum.
-    pub draw_all_sectors: bool,
-    /// Test hook: changes every drawn level's ring density after the plan chose it.
-    pub density_map: Option<DensityMap>,
+    /// What tests and benchmarks switch (all off: the frame as planned).
+    pub switches: Switches,
     mesh: RingMesh,
     bounds: SectorBounds,
-    vertex_buffer: wgpu::Buffer,
-    index_buffer: wgpu::Buffer,
-    frame_buffer: wgpu::Buffer,
-    levels_buffer: wgpu::Buffer,
+    /// The ring mesh and the frame's uniforms, the level textures, and group 0 over them.
+    buffers: FrameBuffers,
+    textures: LevelTextures,
     bind_group: wgpu::BindGroup,
     /// One per shader variant: plain, with the coarse-level blend, with the density morph
     /// (`clipmap::draw_list::Variant`, in that order), with and without the water's shading.
@@ -90,43 +85,16 @@ pub struct TerrainRenderer {
     pub look_time_s: f64,
     /// The camera of the last frame prepared (a camera at rest drops the φ-span hysteresis).
     last_camera: Option<Camera>,
-    /// Debug/benchmark: draw with the pass-through pipeline instead of the terrain's.
-    pub use_passthrough: bool,
-    /// Tests: integrate the sky per pixel even where the sky-view table would serve.
-    pub sky_per_pixel: bool,
-    /// Tests: shade every frame with everything compiled in ([`Shading::ALL`]), as before
-    /// [`FrameInfo::shading`].
-    pub all_shading: bool,
-    /// Tests: shade the sky over the whole frame, as before the ring ([`FrameInfo::sky_ring`]).
-    pub sky_whole_frame: bool,
-    /// Tests: draw every range with the water's shading, as before the water cull (which
-    /// still runs; only the draws ignore it).
-    pub ignore_water_cull: bool,
-    /// Measurement: shade every bump octave whatever its size on screen (the naive policy the
-    /// shimmer measurement compares against).
-    pub naive_bump: bool,
     /// Benchmark: a timestamp query set whose queries 2–3 bracket the frame's compute fill.
     pub fill_timestamps: Option<wgpu::QuerySet>,
-    fill: FillPass,
+    /// The fills (analytic, or the DEM's feed), the normals and the water cull.
+    passes: Passes,
     /// The map-space window each level texture currently holds (None: never filled).
     grids: Vec<Option<LevelGrid>>,
-    /// The DEM's streaming pipeline (None for the analytic planet).
-    feed: Option<DemFeed>,
-    heights: wgpu::Texture,
-    /// The procedural detail's fill resources and the partial-octave level textures.
-    detail: DetailResources,
-    partials: wgpu::Texture,
-    bump_buffer: wgpu::Buffer,
-    /// Per-level world-frame normals (`render::normals`), filled after the heights.
-    normals: wgpu::Texture,
-    normal_pass: NormalPass,
-    /// With water: which draws may leave its shading out (`render::water_cull`).
-    water_cull: Option<WaterCull>,
     /// Which LOD method draws near the ground (`set_lod`).
     lod: LodSettings,
-    /// `auto`'s current choice (hysteresis).
-    auto_planar: bool,
-    geomip_state: GeomipState,
+    /// The method `lod` names: what the clipmap fills and draws, and the close-up's plan.
+    method: Box<dyn LodMethod>,
     planar: PlanarResources,
     /// The clipmap variants that cut out the planar square, and the geomipmapping pipeline
     /// (built on first use).
@@ -150,15 +118,6 @@ const SKY_RING_INNER_MARGIN_M: f64 = 1000.0;
 /// from the Moon is 4·10⁸ m away), so their depth lies behind every terrain pixel.
 const SKY_RING_DISTANCE_M: f64 = 1e10;
 
-/// Fill dispatches a level may need in one frame. A level rewrites at most 2 rectangles of
-/// at most S × S texels, each cut along the anchor lattice of S/2 blocks
-/// (`GridRect::anchored_pieces`): 3 × 3 pieces; the DEM fill cuts further at the poles' fold
-/// lines (2 more rows of pieces) and, for a regional grid, at the 360° wrap (1 more column);
-/// a normal rectangle is widened by a texel (4 × 4 pieces).
-const ANALYTIC_JOBS_PER_LEVEL: u32 = 2 * 3 * 3;
-const DEM_JOBS_PER_LEVEL: u32 = 2 * 4 * 5;
-const NORMAL_JOBS_PER_LEVEL: u32 = 2 * 4 * 4;
-
 /// Settings the renderer can draw with `terrain`: valid on their own, within the per-level
 /// uniform array, and a blend band the detail's octaves can follow.
 fn check_settings(settings: &ClipmapSettings, terrain: &Terrain) -> Result<(), RenderError> {
@@ -174,31 +133,12 @@ fn check_settings(settings: &ClipmapSettings, terrain: &Terrain) -> Result<(), R
     Ok(())
 }
 
-/// The passes that read the level textures after each fill: the normals and, where the terrain
-/// has water, the cull that proves levels dry.
-fn derived_passes(
-    device: &wgpu::Device,
-    settings: &ClipmapSettings,
-    terrain: &Terrain,
-    textures: &LevelTextures,
-) -> (NormalPass, Option<WaterCull>) {
-    let normal_pass = NormalPass::new(
-        device,
-        NORMAL_JOBS_PER_LEVEL * settings.levels,
-        &textures.heights_view,
-        &textures.partials_view,
-        &textures.normals_view,
-    );
-
-    let water_cull = terrain.water_level_m().is_some().then(|| {
-        WaterCull::new(
-            device,
-            &textures.normals_view,
-            settings.levels,
-            settings.texture_size,
-        )
-    });
-    (normal_pass, water_cull)
+/// [`TerrainRenderer::query`] from the two fields alone (borrowed beside the method's state).
+fn query_of<'a>(feed: &'a Option<DemFeed>, terrain: &'a Terrain) -> &'a dyn TerrainQuery {
+    match feed {
+        Some(feed) => feed.tiles(),
+        None => terrain,
+    }
 }
 
 impl TerrainRenderer {
@@ -227,32 +167,22 @@ impl TerrainRenderer {
         stream: StreamSettings,
     ) -> Result<Self, RenderError> {
         check_settings(&settings, &terrain)?;
-        let radius_m = terrain.radius_m();
         let mesh = RingMesh::build(&settings);
-        let bounds = SectorBounds::new(&mesh);
-
         let buffers = FrameBuffers::new(device, &mesh);
         let textures = LevelTextures::new(device, &settings);
-        let mut detail_resources = DetailResources::new(
-            device,
-            terrain.detail().cloned(),
-            settings.blend_fraction as f64,
-            DEM_JOBS_PER_LEVEL * settings.levels,
-        );
-        detail_resources.bind(device, &textures.partials_view);
-        let (normal_pass, water_cull) = derived_passes(device, &settings, &terrain, &textures);
+        let passes = Passes::new(device, &settings, &terrain, &textures, stream)?;
         let look_resources = LookResources::new(device, color_format);
         let layout = resources::bind_group_layout(device);
-        let lod = LodSettings::default();
-        let planar = PlanarResources::new(device, lod.geomip.patch_size);
         let bind_group = resources::bind_group(
             device,
             &layout,
             &buffers,
             &textures,
-            &detail_resources,
+            &passes.detail,
             &look_resources,
         );
+        let lod = LodSettings::default();
+        let planar = PlanarResources::new(device, lod.geomip.patch_size);
         let placement = Placement::new(device, &mesh);
         let pipeline_parts = PipelineParts::new(
             device,
@@ -265,38 +195,17 @@ impl TerrainRenderer {
         );
         let look = LookSettings::default();
         let (pipelines, passthrough, place_pipelines) = pipeline_parts.build(device, look);
-        let mut fill = FillPass::new(
-            device,
-            ANALYTIC_JOBS_PER_LEVEL * settings.levels,
-            &detail_resources,
-        );
-        fill.set_target(device, &textures.heights_view);
-        let grids = vec![None; settings.levels as usize];
-        let feed = match terrain.base() {
-            Base::Dem(dem) => Some(DemFeed::for_levels(
-                device,
-                dem.clone(),
-                stream,
-                DEM_JOBS_PER_LEVEL * settings.levels,
-                &detail_resources,
-                &textures.heights_view,
-                terrain.water_level_m(),
-            )?),
-            Base::Analytic(_) => None,
-        };
         Ok(Self {
+            grids: vec![None; settings.levels as usize],
+            atmosphere: Atmosphere::earth(terrain.radius_m()),
             settings,
             terrain,
             overlays: Overlays::default(),
-            draw_all_levels: false,
-            draw_all_sectors: false,
-            density_map: None,
+            switches: Switches::default(),
+            bounds: SectorBounds::new(&mesh),
             mesh,
-            bounds,
-            vertex_buffer: buffers.vertices,
-            index_buffer: buffers.indices,
-            frame_buffer: buffers.frame,
-            levels_buffer: buffers.levels,
+            buffers,
+            textures,
             bind_group,
             pipelines,
             passthrough,
@@ -307,29 +216,12 @@ impl TerrainRenderer {
             pipeline_parts,
             look,
             look_resources,
-            atmosphere: Atmosphere::earth(radius_m),
             look_time_s: 0.0,
             last_camera: None,
-            use_passthrough: false,
-            sky_whole_frame: false,
-            all_shading: false,
-            ignore_water_cull: false,
-            sky_per_pixel: false,
-            naive_bump: false,
             fill_timestamps: None,
-            fill,
-            grids,
-            feed,
-            heights: textures.heights,
-            detail: detail_resources,
-            partials: textures.partials,
-            bump_buffer: buffers.bump,
-            normals: textures.normals,
-            normal_pass,
-            water_cull,
+            passes,
+            method: crate::plan::lod::method(&lod),
             lod,
-            auto_planar: false,
-            geomip_state: GeomipState::default(),
             planar,
             planar_pipelines: None,
             grid_pipelines: None,
@@ -338,19 +230,14 @@ impl TerrainRenderer {
         })
     }
 
-    /// The projected grid covers the view this frame (its pipelines are built).
-    fn grid_drawn(&self) -> bool {
-        self.lod.mode == LodMode::Projgrid && self.grid_pipelines.is_some()
-    }
-
     /// The wireframe overlay's pipelines draw this frame.
     fn wire_drawn(&self) -> bool {
-        self.overlays.wireframe && self.wire_pipelines.is_some() && !self.use_passthrough
+        self.overlays.wireframe && self.wire_pipelines.is_some() && !self.switches.use_passthrough
     }
 
     /// The clipmap's draws read the vertex pre-pass's vertices this frame.
     fn placed_drawn(&self) -> bool {
-        self.place_pipelines.is_some() && !self.use_passthrough && !self.wire_drawn()
+        self.place_pipelines.is_some() && !self.switches.use_passthrough && !self.wire_drawn()
     }
 
     /// Measurement: the vertex stage places the clipmap's vertices itself, as before the
@@ -422,8 +309,8 @@ impl TerrainRenderer {
     /// Which LOD method draws near the ground from the next frame on.
     pub fn set_lod(&mut self, device: &wgpu::Device, lod: LodSettings) {
         self.planar.set_patch_size(device, lod.geomip.patch_size);
-        if lod.geomip != self.lod.geomip {
-            self.geomip_state = GeomipState::default();
+        if lod != self.lod {
+            self.method = crate::plan::lod::method(&lod);
         }
         if lod.geomip.geomorph != self.lod.geomip.geomorph {
             self.planar_pipelines = None;
@@ -466,12 +353,12 @@ impl TerrainRenderer {
         detail: std::sync::Arc<crate::procedural::Detail>,
     ) -> Result<(), RenderError> {
         detail.check_blend(self.settings.blend_fraction as f64)?;
-        if !self.detail.replace_detail(queue, detail.clone()) {
+        if !self.passes.detail.replace_detail(queue, detail.clone()) {
             return Err(RenderError::Gpu(
                 "the renderer was built without detail or with another relief map size".into(),
             ));
         }
-        if let Some(feed) = &mut self.feed {
+        if let Some(feed) = &mut self.passes.feed {
             feed.set_detail(Some(detail.clone()));
         }
         self.terrain = self.terrain.clone().with_detail_of(Some(detail));
@@ -486,7 +373,7 @@ impl TerrainRenderer {
 
     /// The streaming pipeline, for a DEM.
     pub fn feed(&self) -> Option<&DemFeed> {
-        self.feed.as_ref()
+        self.passes.feed.as_ref()
     }
 
     /// Renders nothing but runs frames for `camera` (streaming, uploads, fills) until every
@@ -535,11 +422,15 @@ impl TerrainRenderer {
                 let settled_at = *first_settled.get_or_insert(now);
                 // The frame's culling runs after its feed update: its misses show only here.
                 let bounds_missing = info.stream.as_ref().is_some_and(|s| s.tiles_missing > 0)
-                    || self.feed.as_ref().is_some_and(DemFeed::queries_missed);
+                    || self
+                        .passes
+                        .feed
+                        .as_ref()
+                        .is_some_and(|f| f.tiles().queries_missed());
                 if !bounds_missing || now >= deadline.min(settled_at + SETTLE_BOUNDS_GRACE) {
                     return Ok(());
                 }
-                if let Some(feed) = &mut self.feed {
+                if let Some(feed) = &mut self.passes.feed {
                     feed.wait_for_tile(std::time::Duration::from_millis(50));
                 }
                 continue;
@@ -563,7 +454,7 @@ impl TerrainRenderer {
                 });
             }
             let backlog = info.stream.as_ref().is_some_and(|s| s.upload_backlog > 0);
-            if let Some(feed) = &mut self.feed
+            if let Some(feed) = &mut self.passes.feed
                 && !backlog
             {
                 feed.wait_for_tile((deadline - now).min(std::time::Duration::from_millis(50)));
@@ -595,37 +486,29 @@ impl TerrainRenderer {
             let device = self.pipeline_parts.device.clone();
             self.rebuild_pipelines(&device);
         }
+        // What to fill (f64), then the fills: which levels the tiles at hand could fill
+        // decides what the levels hold.
         let (view, mut clipmap) = self.plan_levels(camera, width_px, height_px);
         let (texels_filled, stream, normal_jobs) =
             self.encode_fills(queue, encoder, &view, &clipmap);
-        let normals_written = self.encode_normals(queue, encoder, &normal_jobs);
-        let planar = self.plan_close_up(queue, &view, &mut clipmap);
+        // What to draw once the fills are known (f64): a close-up's heights come from the
+        // levels just filled, and the clipmap draws the levels it holds.
+        let query = query_of(&self.passes.feed, &self.terrain);
+        let close_up = self.method.plan_close_up(&view, query, &mut clipmap);
         self.plan_draws(&view, &mut clipmap);
+        // Then the rest of the frame's GPU work, in the order the GPU runs it.
+        let normals_written = self.encode_normals(queue, encoder, &normal_jobs);
+        let planar = self.encode_close_up(queue, &view, close_up.as_ref());
         let (levels, bump, look, sky_ring) = self.upload_uniforms(queue, &view, &clipmap);
         self.begin_terrain_timing(encoder);
         // The sky from its table wherever the eye is inside the atmosphere (render::look).
         let inside = look.eye_radius_m < look.shell[1];
-        self.look_resources
-            .prepare_sky(encoder, self.look.sky && inside && !self.sky_per_pixel);
+        self.look_resources.prepare_sky(
+            encoder,
+            self.look.sky && inside && !self.switches.sky_per_pixel,
+        );
         let shading = self.choose_shading(&view, &clipmap, &levels, &bump);
-        if let Some(cull) = &mut self.water_cull {
-            let entries: Vec<u32> = (clipmap.draw.levels.iter().zip(&clipmap.draw.variants))
-                .map(|(&l, &v)| super::water_cull::draw_entry(l, v != Variant::Plain))
-                .collect();
-            let boxes =
-                super::water_cull::level_boxes(&self.grids, view.phi_v_rad, view.theta_v_rad);
-            cull.encode(
-                queue,
-                encoder,
-                super::water_cull::CullFrame {
-                    written: &normals_written,
-                    ranges: &clipmap.draw.ranges,
-                    entries,
-                    boxes,
-                    water_level_m: look.water_level_m,
-                },
-            );
-        }
+        self.encode_water_cull(queue, encoder, (&view, &clipmap), &normals_written, &look);
         self.encode_placement(queue, encoder, &clipmap.draw.pieces);
 
         // A frame whose camera height came from coarser tiles than its own is not settled,
@@ -667,12 +550,12 @@ impl TerrainRenderer {
             &self.settings,
             &self.grids,
             self.query().height_range_m(),
-            self.draw_all_levels,
+            self.switches.draw_all_levels,
             !at_rest,
         );
         // The planar methods sample the levels around the nadir whether or not they are in
         // view, so only the clipmap alone leaves out-of-view levels unfilled.
-        if self.lod.mode == LodMode::Clipmap && !self.draw_all_levels {
+        if self.method.fills_only_levels_in_view() && !self.switches.draw_all_levels {
             clipmap.limit_to_view(&view, self.query());
         }
         (view, clipmap)
@@ -698,7 +581,7 @@ impl TerrainRenderer {
                 beginning_of_pass_write_index: Some(2),
                 end_of_pass_write_index: Some(3),
             });
-        match (self.terrain.base(), &mut self.feed) {
+        match (self.terrain.base(), &mut self.passes.feed) {
             (Base::Analytic(planet), _) => {
                 let fills = clipmap.fills.iter().filter(|f| !f.defer);
                 let jobs: Vec<FillJob> = fills
@@ -713,9 +596,14 @@ impl TerrainRenderer {
                 for fill in fills {
                     self.grids[fill.grid.level as usize] = Some(fill.grid);
                 }
-                let texels =
-                    self.fill
-                        .encode(queue, encoder, planet, &self.detail, &jobs, timestamps);
+                let texels = self.passes.fill.encode(
+                    queue,
+                    encoder,
+                    planet,
+                    &self.passes.detail,
+                    &jobs,
+                    timestamps,
+                );
                 (texels, None, jobs)
             }
             (Base::Dem(_), Some(feed)) => {
@@ -725,7 +613,7 @@ impl TerrainRenderer {
                     encoder,
                     &clipmap.fills,
                     nadir,
-                    &self.detail,
+                    &self.passes.detail,
                     timestamps,
                 );
                 let mut done = Vec::new();
@@ -762,7 +650,7 @@ impl TerrainRenderer {
                     beginning_of_pass_write_index: None,
                     end_of_pass_write_index: Some(3),
                 });
-        self.normal_pass.encode(
+        self.passes.normals.encode(
             queue,
             encoder,
             normal_jobs,
@@ -772,46 +660,30 @@ impl TerrainRenderer {
         )
     }
 
-    /// A planar method near the viewer: its plan and GPU data (its heights come from the
-    /// levels just filled); the clipmap's cut around it.
-    fn plan_close_up(
-        &mut self,
+    /// The close-up method's GPU data for its plan (the f64 → f32 step), or none drawn.
+    fn encode_close_up(
+        &self,
         queue: &wgpu::Queue,
         view: &ViewPlan,
-        clipmap: &mut ClipmapPlan,
+        plan: Option<&CloseUpPlan>,
     ) -> Option<PlanarDraw> {
-        let grid_on = self.grid_drawn();
-        let planar_on = self
-            .lod
-            .mode
-            .planar(view.height_above_terrain_m, self.auto_planar)
-            && self.planar_pipelines.is_some();
-        self.auto_planar = planar_on;
-        if grid_on {
-            let plan = crate::plan::projgrid::plan(view, &self.lod.projgrid, self.query());
-            Some(
-                self.planar
-                    .write_grid(queue, view, &plan, self.lod.projgrid.ray_cast),
-            )
-        } else if planar_on {
-            let mut state = std::mem::take(&mut self.geomip_state);
-            let plan = state.plan(view, &self.lod.geomip, self.query());
-            self.geomip_state = state;
-            clipmap.covered_rad = plan.covered_rad;
-            clipmap.cut_rad = plan.cut_reach_rad;
-            Some(self.planar.write_geomip(queue, view, &plan))
-        } else {
-            self.planar.write_inactive(queue);
-            None
+        match plan {
+            Some(CloseUpPlan::Grid { plan, ray_cast }) => {
+                Some(self.planar.write_grid(queue, view, plan, *ray_cast))
+            }
+            Some(CloseUpPlan::Geomip(plan)) => Some(self.planar.write_geomip(queue, view, plan)),
+            None => {
+                self.planar.write_inactive(queue);
+                None
+            }
         }
     }
 
     /// What the clipmap draws: the levels whose grids are held, their densities and the
     /// sectors in view (nothing where the projected grid covers the view).
     fn plan_draws(&self, view: &ViewPlan, clipmap: &mut ClipmapPlan) {
-        let grid_on = self.grid_drawn();
         clipmap.limit_to_held(&self.grids);
-        clipmap.density_map = self.density_map;
+        clipmap.density_map = self.switches.density_map;
         clipmap.density_caps = self.terrain.detail().map(|d| {
             crate::plan::clipmap::detail_density_caps(
                 d,
@@ -826,11 +698,9 @@ impl TerrainRenderer {
             &self.mesh,
             &self.bounds,
             self.query(),
-            self.draw_all_sectors,
+            self.switches.draw_all_sectors,
         );
-        if grid_on {
-            // The grid covers the whole view: the levels fill the textures it samples but
-            // draw nothing.
+        if !self.method.clipmap_draws() {
             clipmap.draw = Default::default();
         }
     }
@@ -850,15 +720,15 @@ impl TerrainRenderer {
         let detail = self.terrain.detail().map(|d| d.as_ref());
         let blend = self.settings.blend_fraction as f64;
         let levels = gpu_data::level_uniforms(view, &self.grids, &clipmap.densities, detail, blend);
-        queue.write_buffer(&self.levels_buffer, 0, bytemuck::cast_slice(&levels));
+        queue.write_buffer(&self.buffers.levels, 0, bytemuck::cast_slice(&levels));
         let uniforms =
             FrameUniforms::from_plan(view, clipmap, &self.settings, self.overlays, detail);
-        queue.write_buffer(&self.frame_buffer, 0, bytemuck::bytes_of(&uniforms));
+        queue.write_buffer(&self.buffers.frame, 0, bytemuck::bytes_of(&uniforms));
         let mut bump = BumpUniforms::new(view, detail);
-        if self.naive_bump {
+        if self.switches.naive_bump {
             bump.lambda_px = [f32::MAX, 0.0, bump.lambda_px[2], 0.0];
         }
-        queue.write_buffer(&self.bump_buffer, 0, bytemuck::bytes_of(&bump));
+        queue.write_buffer(&self.buffers.bump, 0, bytemuck::bytes_of(&bump));
         self.look_resources.upload(queue, self.look.mips);
         let mut look = LookUniforms::from_plan(
             view,
@@ -871,7 +741,7 @@ impl TerrainRenderer {
         // sphere under all terrain and the shell's cone need the sky's integral (a CPU
         // rasteriser pays for every pixel of a full-screen pass, even where each returns at
         // once). The terrain's lowest point is lowered by a kilometre for the mesh's chords.
-        let sky_ring = if self.look.sky && !self.sky_whole_frame {
+        let sky_ring = if self.look.sky && !self.switches.sky_whole_frame {
             let pixel_rad = 2.0 * (0.5 * view.fov_y_rad).tan() / f64::from(view.height_px.max(1));
             SkyRing::new(
                 view.radius_m + view.camera.altitude_m,
@@ -902,7 +772,7 @@ impl TerrainRenderer {
         if let Some(q) = self
             .fill_timestamps
             .as_ref()
-            .filter(|_| !self.use_passthrough)
+            .filter(|_| !self.switches.use_passthrough)
         {
             encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some("terrain timing start"),
@@ -928,11 +798,11 @@ impl TerrainRenderer {
         let highest_m = self.terrain.height_range_m().1;
         let shading = Shading {
             far: (self.look.textures || self.terrain.water_level_m().is_some())
-                && !self.all_shading
+                && !self.switches.all_shading
                 && far_footprint_m(view, highest_m) >= FAR_FOOTPRINT_M,
             // Seen from high enough, every octave of two pixels is in the levels' geometry.
             // Without detail `BUMP` compiles nothing: keep the default pipelines.
-            bump: self.all_shading
+            bump: self.switches.all_shading
                 || !self.pipeline_parts.detail_on
                 || bump_can_show(bump, levels, &clipmap.draw.levels, view, highest_m),
         };
@@ -947,6 +817,36 @@ impl TerrainRenderer {
             self.shading_pipelines.push((shading, pipelines));
         }
         shading
+    }
+
+    /// With water: the cull over the frame's draws (which may leave the water's shading out),
+    /// from the normals just written.
+    fn encode_water_cull(
+        &mut self,
+        queue: &wgpu::Queue,
+        encoder: &mut wgpu::CommandEncoder,
+        (view, clipmap): (&ViewPlan, &ClipmapPlan),
+        normals_written: &[SlotRect],
+        look: &LookUniforms,
+    ) {
+        let Some(cull) = &mut self.passes.water_cull else {
+            return;
+        };
+        let entries: Vec<u32> = (clipmap.draw.levels.iter().zip(&clipmap.draw.variants))
+            .map(|(&l, &v)| super::water_cull::draw_entry(l, v != Variant::Plain))
+            .collect();
+        let boxes = super::water_cull::level_boxes(&self.grids, view.phi_v_rad, view.theta_v_rad);
+        cull.encode(
+            queue,
+            encoder,
+            super::water_cull::CullFrame {
+                written: normals_written,
+                ranges: &clipmap.draw.ranges,
+                entries,
+                boxes,
+                water_level_m: look.water_level_m,
+            },
+        );
     }
 
     /// The vertex pre-pass over the draw list's pieces, where the frame's draws read it.
@@ -1018,186 +918,6 @@ impl TerrainRenderer {
     /// Where the frame plan's terrain questions are answered: the streamed tiles for a DEM,
     /// the terrain function for the analytic planet.
     fn query(&self) -> &dyn TerrainQuery {
-        match &self.feed {
-            Some(feed) => feed,
-            None => &self.terrain,
-        }
-    }
-
-    /// Records a whole terrain pass: colour cleared to the sky, depth cleared to 0 (reversed-Z),
-    /// then the draw calls of `info`. `depth_store` keeps the depth for readback or discards it;
-    /// `timestamps` times the pass on the GPU (from the work `prepare` recorded after the fill
-    /// when it started the timing there).
-    pub fn encode_pass(
-        &self,
-        encoder: &mut wgpu::CommandEncoder,
-        info: &FrameInfo,
-        color: &wgpu::TextureView,
-        depth: &wgpu::TextureView,
-        depth_store: wgpu::StoreOp,
-        timestamps: Option<wgpu::RenderPassTimestampWrites<'_>>,
-    ) {
-        // With the sky on, its pass shades every pixel the terrain leaves, black beyond the
-        // shell: the clear colour shows only outside `sky_ring`, where the pass would be black.
-        let [r, g, b] = if self.look.sky && !self.use_passthrough {
-            [0.0; 3]
-        } else {
-            info.sky_linear
-        };
-        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-            label: Some("terrain"),
-            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                view: color,
-                depth_slice: None,
-                resolve_target: None,
-                ops: wgpu::Operations {
-                    load: wgpu::LoadOp::Clear(wgpu::Color { r, g, b, a: 1.0 }),
-                    store: wgpu::StoreOp::Store,
-                },
-            })],
-            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                view: depth,
-                depth_ops: Some(wgpu::Operations {
-                    load: wgpu::LoadOp::Clear(0.0),
-                    store: depth_store,
-                }),
-                stencil_ops: None,
-            }),
-            timestamp_writes: timestamps.map(|t| wgpu::RenderPassTimestampWrites {
-                beginning_of_pass_write_index: t
-                    .beginning_of_pass_write_index
-                    .filter(|_| !self.timing_started),
-                ..t
-            }),
-            occlusion_query_set: None,
-            multiview_mask: None,
-        });
-        self.draw(&mut pass, info);
-    }
-
-    /// Records the terrain draw calls of `info` into `pass`.
-    pub fn draw(&self, pass: &mut wgpu::RenderPass<'_>, info: &FrameInfo) {
-        pass.set_bind_group(0, &self.bind_group, &[]);
-        pass.set_bind_group(1, self.planar.bind_group(), &[]);
-        pass.set_vertex_buffer(
-            0,
-            match (&self.placement, self.placed_drawn()) {
-                (Some(p), true) => p.vertex_buffer().slice(..),
-                _ => self.vertex_buffer.slice(..),
-            },
-        );
-        pass.set_index_buffer(self.index_buffer.slice(..), wgpu::IndexFormat::Uint32);
-        let mut current = None;
-        let wire = self
-            .wire_pipelines
-            .as_ref()
-            .filter(|_| self.overlays.wireframe && !self.use_passthrough);
-        // The projected grid draws alone.
-        if let Some(grid) = info.planar.as_ref().and_then(|p| p.grid.as_ref()) {
-            if let Some(pipelines) = &self.grid_pipelines
-                && !grid.indices.is_empty()
-                && !self.use_passthrough
-            {
-                match wire.and_then(|w| w.grid.as_ref()) {
-                    Some(w) => {
-                        pass.set_pipeline(if grid.ray_cast { &w.ray_cast } else { &w.plain });
-                        pass.draw(grid.indices.clone(), 0..1);
-                    }
-                    None => {
-                        pass.set_pipeline(if grid.ray_cast {
-                            &pipelines.ray_cast
-                        } else {
-                            &pipelines.plain
-                        });
-                        pass.set_index_buffer(
-                            self.planar.grid_index_buffer().slice(..),
-                            wgpu::IndexFormat::Uint32,
-                        );
-                        pass.draw_indexed(grid.indices.clone(), 0, 0..1);
-                    }
-                }
-            }
-            if self.look.sky && !self.use_passthrough {
-                self.look_resources.draw_sky(pass, info.sky_ring);
-            }
-            return;
-        }
-        // With a planar method the clipmap leaves its square out.
-        let planar = match (&info.planar, &self.planar_pipelines) {
-            (Some(draw), Some(pipelines)) if !self.use_passthrough => Some((draw, pipelines)),
-            _ => None,
-        };
-        let shaded = (self.shading_pipelines.iter())
-            .find(|(s, _)| *s == info.shading)
-            .map(|(_, p)| p);
-        let uncut = match (wire, shaded) {
-            (Some(w), _) => &w.clipmap,
-            (None, Some(p)) => p,
-            (None, None) => &self.pipelines,
-        };
-        let cull = self
-            .water_cull
-            .as_ref()
-            .filter(|_| !self.use_passthrough && !self.ignore_water_cull);
-        let cut = match (wire, planar) {
-            (Some(w), Some(_)) => &w.clipmap_cut,
-            (None, Some((_, p))) => &p.clipmap_cut,
-            (_, None) => uncut,
-        };
-        for (i, (range, &variant)) in info.draw.ranges.iter().zip(&info.draw.variants).enumerate() {
-            if range.is_empty() {
-                continue;
-            }
-            // The pipeline set by (cut, variant): a range of the cut never reuses an uncut one.
-            let in_cut = i >= info.draw.first_cut;
-            let clipmap = if in_cut { cut } else { uncut };
-            let v = match variant {
-                Variant::Plain => 0,
-                Variant::Blend => 1,
-                Variant::Morph => 2,
-            };
-            if let (Some(cull), Some(dry)) = (cull, &clipmap.dry) {
-                // Twice, each draw with the instance the water cull gave it or none.
-                pass.set_pipeline(&dry[v]);
-                pass.draw_indexed_indirect(cull.args(), WaterCull::offset(i, false));
-                pass.set_pipeline(&clipmap.wet[v]);
-                pass.draw_indexed_indirect(cull.args(), WaterCull::offset(i, true));
-                current = Some((in_cut, variant));
-                continue;
-            }
-            if current != Some((in_cut, variant)) {
-                pass.set_pipeline(if self.use_passthrough {
-                    &self.passthrough
-                } else {
-                    &clipmap.wet[v]
-                });
-                current = Some((in_cut, variant));
-            }
-            if wire.is_some() {
-                pass.draw(range.clone(), 0..1);
-            } else {
-                pass.draw_indexed(range.clone(), 0, 0..1);
-            }
-        }
-        if let Some((draw, pipelines)) = planar {
-            match wire {
-                Some(w) => pass.set_pipeline(&w.geomip),
-                None => pass.set_pipeline(&pipelines.geomip),
-            }
-            pass.set_index_buffer(
-                self.planar.index_buffer().slice(..),
-                wgpu::IndexFormat::Uint32,
-            );
-            for (range, patch) in &draw.draws {
-                if wire.is_some() {
-                    pass.draw(range.clone(), *patch..*patch + 1);
-                } else {
-                    pass.draw_indexed(range.clone(), 0, *patch..*patch + 1);
-                }
-            }
-        }
-        if self.look.sky && !self.use_passthrough {
-            self.look_resources.draw_sky(pass, info.sky_ring);
-        }
+        query_of(&self.passes.feed, &self.terrain)
     }
 }

@@ -282,7 +282,7 @@ impl DemTerrain {
     /// finest level that was all 2160 columns of the embedded Earth (43 200 at 30″) for every
     /// drawn level, 8 ms of CPU per frame at `north-pole`. Any level's planes bound the
     /// terrain, a coarser one more loosely, so culling stays conservative. For culling only
-    /// (`DemFeed::height_bounds_near_m`): the detail's relief map takes the finest bounds of
+    /// (`TilesAtHand::dem_bounds_near_m`): the detail's relief map takes the finest bounds of
     /// [`DemTerrain::height_bounds_near_m`], which set its amplitude.
     pub fn bounds_level_at(&self, u: DVec3, angle_rad: f64) -> usize {
         let (_, theta, _) = sphere::phi_theta_height_from_ecef_m(u, 1.0);

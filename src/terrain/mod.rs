@@ -3,6 +3,7 @@
 //! check rendered heights exactly; the DEM pyramid (real elevation data) joins it here.
 
 pub mod analytic;
+pub mod at_hand;
 pub mod dem;
 
 use std::sync::Arc;

@@ -52,9 +52,9 @@ fn a_completed_morph_switches_density_without_moving_the_surface() {
         let mut r =
             TerrainRenderer::new(&ctx.device, settings.clone(), terrain.clone(), COLOR_FORMAT)
                 .unwrap();
-        r.density_map = Some(DensityMap(morphed));
+        r.switches.density_map = Some(DensityMap(morphed));
         let a = common::render(ctx, &mut r, &camera, W, H);
-        r.density_map = Some(DensityMap(next));
+        r.switches.density_map = Some(DensityMap(next));
         let b = common::render(ctx, &mut r, &camera, W, H);
         assert!(
             b.info.draw.triangles < a.info.draw.triangles,

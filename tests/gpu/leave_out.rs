@@ -204,9 +204,9 @@ fn check_scene(name: &str) {
             "{name}: a narrow view culls sectors"
         );
     }
-    r.draw_all_sectors = true;
+    r.switches.draw_all_sectors = true;
     let everything = common::render(ctx, &mut r, &camera, WIDTH, HEIGHT);
-    r.draw_all_sectors = false;
+    r.switches.draw_all_sectors = false;
     assert_eq!(everything.info.draw.sectors_culled, 0);
     assert_eq!(everything.info.draw.triangles, triangles_total);
 
@@ -250,7 +250,7 @@ fn check_scene(name: &str) {
 
     // The same view with every level forced on, from a fresh renderer: what the bounds saved.
     let mut all = common::default_renderer(ctx, &terrain);
-    all.draw_all_levels = true;
+    all.switches.draw_all_levels = true;
     let all_streamed = stream_in(ctx, &mut all, &camera);
     let all_written = all_streamed.texels;
     let all_stream = all_streamed.info.stream.as_ref().unwrap().stream;

@@ -217,7 +217,7 @@ fn skipped_levels_are_really_invisible() {
     for name in ["north-pole", "space", "ground"] {
         let camera = scene_camera(&r, name);
         let (w, h) = (480, 270);
-        r.draw_all_levels = false;
+        r.switches.draw_all_levels = false;
         let selected = render(ctx, &mut r, &camera, w, h);
         let sel = &selected.info.selection;
         for (i, status) in sel.status.iter().enumerate() {
@@ -232,9 +232,9 @@ fn skipped_levels_are_really_invisible() {
                 LevelStatus::OutOfView => assert!(i as u32 > sel.finest),
             }
         }
-        r.draw_all_levels = true;
+        r.switches.draw_all_levels = true;
         let everything = render(ctx, &mut r, &camera, w, h);
-        r.draw_all_levels = false;
+        r.switches.draw_all_levels = false;
         let differing = pixels_differing(&selected, &everything);
         eprintln!(
             "{name}: drew levels {:?} ({} triangles); all {} levels ({} triangles) differ in {differing} px",
@@ -498,11 +498,11 @@ fn culled_sectors_are_really_outside_the_view() {
     for scene in globe::scenes::SCENES {
         let camera = scene_camera(&r, scene.name);
         let (w, h) = (320, 180);
-        r.draw_all_sectors = false;
+        r.switches.draw_all_sectors = false;
         let culled = render(ctx, &mut r, &camera, w, h);
-        r.draw_all_sectors = true;
+        r.switches.draw_all_sectors = true;
         let everything = render(ctx, &mut r, &camera, w, h);
-        r.draw_all_sectors = false;
+        r.switches.draw_all_sectors = false;
         let differing = pixels_differing(&culled, &everything);
         eprintln!(
             "{}: {} of {} sectors culled, {} → {} triangles, {differing} px differ",

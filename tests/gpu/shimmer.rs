@@ -90,7 +90,7 @@ fn shimmer_of_the_octave_policy_against_the_naive_one() {
         .with_detail(Some(DetailParams::default()));
     let set = |naive: bool| {
         move |r: &mut TerrainRenderer| {
-            r.naive_bump = naive;
+            r.switches.naive_bump = naive;
             r.set_look(&ctx.device, LookSettings::plain());
         }
     };

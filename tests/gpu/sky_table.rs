@@ -19,7 +19,7 @@ const HEIGHT_PX: u32 = 180;
 /// The full look without the detail; `per_pixel`: the sky integrated per pixel throughout.
 fn renderer(ctx: &globe::render::GpuContext, per_pixel: bool) -> TerrainRenderer {
     let mut r = common::full_look_renderer(ctx, false);
-    r.sky_per_pixel = per_pixel;
+    r.switches.sky_per_pixel = per_pixel;
     r
 }
 
@@ -111,7 +111,7 @@ fn from_space_the_sky_shades_only_the_shells_ring() {
             a.info.sky_ring
         );
         let mut whole = renderer(ctx, false);
-        whole.sky_whole_frame = true;
+        whole.switches.sky_whole_frame = true;
         let b = common::render(ctx, &mut whole, &camera, WIDTH_PX, HEIGHT_PX);
         assert!(b.info.sky_ring.is_none());
         let differing = a
@@ -178,7 +178,7 @@ fn from_afar_the_look_leaves_out_its_constant_texture_work() {
             assert!(!shading.bump, "space: bump octaves compiled in");
         }
         let mut near = common::full_look_renderer(ctx, true);
-        near.all_shading = true;
+        near.switches.all_shading = true;
         let b = common::render(ctx, &mut near, &camera, WIDTH_PX, HEIGHT_PX);
         assert_eq!(b.info.shading, globe::render::terrain::Shading::ALL);
         let diffs = channel_diffs(&a.rgba, &b.rgba);

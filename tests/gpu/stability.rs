@@ -1707,7 +1707,7 @@ fn renders_looking_down_have_no_sky_below_terrain() {
         // Every other frame with mixed ring densities: neighbouring levels three densities
         // apart, half-way through a morph, so every seam is a stitched one.
         let (frames, _) = counts.get();
-        r.density_map = (frames % 2 == 1).then_some(DensityMap(alternating_densities));
+        r.switches.density_map = (frames % 2 == 1).then_some(DensityMap(alternating_densities));
         let frame = render_float(ctx, &mut r, &camera);
         prop_assert!(frame.depth.iter().all(|d| d.is_finite()));
         prop_assert!(frame.rgba.iter().all(|c| c.iter().all(|v| v.is_finite())));

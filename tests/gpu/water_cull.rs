@@ -92,7 +92,7 @@ fn the_cull_changes_no_pixel_and_follows_the_texels() {
 
         // The same frame drawn with the water's shading everywhere: not one byte differs.
         let mut without = renderer(ctx, detail);
-        without.ignore_water_cull = true;
+        without.switches.ignore_water_cull = true;
         let plain = common::render(ctx, &mut without, &camera, WIDTH_PX, HEIGHT_PX);
         let differing = culled
             .rgba

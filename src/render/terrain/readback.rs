@@ -17,7 +17,7 @@ impl TerrainRenderer {
         let Some(grid) = self.grids.get(level as usize).copied().flatten() else {
             return Ok(None);
         };
-        let texels = self.read_layer(ctx, &self.heights, &grid, 4)?;
+        let texels = self.read_layer(ctx, &self.textures.heights, &grid, 4)?;
         let out = texels
             .iter()
             .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
@@ -39,7 +39,7 @@ impl TerrainRenderer {
             d.level_octaves(level, self.settings.blend_fraction as f64)
                 .full
         });
-        let texels = self.read_layer(ctx, &self.partials, &grid, 8)?;
+        let texels = self.read_layer(ctx, &self.textures.partials, &grid, 8)?;
         let out = texels
             .iter()
             .map(|b| {
@@ -61,7 +61,7 @@ impl TerrainRenderer {
         let Some(grid) = self.grids.get(level as usize).copied().flatten() else {
             return Ok(None);
         };
-        let texels = self.read_layer(ctx, &self.normals, &grid, 8)?;
+        let texels = self.read_layer(ctx, &self.textures.normals, &grid, 8)?;
         let s = grid.size as i64;
         let mut lo = f32::INFINITY;
         for (k, t) in texels.iter().enumerate() {
@@ -83,13 +83,13 @@ impl TerrainRenderer {
 
     /// The water cull's boxes of the last frame (`render::water_cull::level_boxes`).
     pub fn water_cull_boxes(&self) -> Option<&[[u32; 4]]> {
-        self.water_cull.as_ref().map(|c| c.boxes())
+        self.passes.water_cull.as_ref().map(|c| c.boxes())
     }
 
     /// The water cull's choice for each draw range of the last frame prepared: true where the
     /// pipeline without the water's code draws it (None: no water, no cull).
     pub fn read_dry_draws(&self, ctx: &GpuContext) -> Result<Option<Vec<bool>>, RenderError> {
-        match &self.water_cull {
+        match &self.passes.water_cull {
             Some(cull) => cull.read_dry(ctx).map(Some),
             None => Ok(None),
         }
@@ -105,7 +105,7 @@ impl TerrainRenderer {
         let Some(grid) = self.grids.get(level as usize).copied().flatten() else {
             return Ok(None);
         };
-        let texels = self.read_layer(ctx, &self.normals, &grid, 8)?;
+        let texels = self.read_layer(ctx, &self.textures.normals, &grid, 8)?;
         let out = texels
             .iter()
             .map(|b| {
