@@ -62,7 +62,35 @@ pub enum MeasureError {
         done: usize,
         total: usize,
     },
+    /// A time limit that is neither 0 (none) nor a number of seconds ([`time_limit`]).
+    #[error("--measure-timeout must be 0 (no limit) or a number of seconds (got {0})")]
+    BadTimeLimit(f64),
     /// `plotters` failed to draw (its error is generic over the backend, hence boxed).
     #[error("drawing the plot: {0}")]
     Plot(Box<dyn std::error::Error + Send + Sync>),
+}
+
+/// A reference ray cast's time limit from `seconds` (0: none), refused when negative or not a
+/// number.
+pub fn time_limit(seconds: f64) -> Result<Option<std::time::Duration>, MeasureError> {
+    if !(seconds >= 0.0 && seconds.is_finite()) {
+        return Err(MeasureError::BadTimeLimit(seconds));
+    }
+    Ok((seconds > 0.0).then(|| std::time::Duration::from_secs_f64(seconds)))
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn a_time_limit_is_none_at_zero_and_refused_unless_a_number_of_seconds() {
+        assert_eq!(super::time_limit(0.0).unwrap(), None);
+        assert_eq!(
+            super::time_limit(1.5).unwrap(),
+            Some(std::time::Duration::from_millis(1500))
+        );
+        for bad in [-1.0, f64::NAN, f64::INFINITY] {
+            let e = super::time_limit(bad).unwrap_err().to_string();
+            assert!(e.contains("--measure-timeout must be 0"), "{bad}: {e}");
+        }
+    }
 }

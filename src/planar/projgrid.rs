@@ -131,6 +131,16 @@ impl ProjGridSettings {
     fn vertex_count(&self) -> usize {
         (self.cols as usize + 1) * (self.rows as usize + 1)
     }
+
+    /// `--grid COLSxROWS` (also `×` or `X`): the columns and rows, not yet validated.
+    pub fn parse_grid(s: &str) -> Result<(u32, u32), String> {
+        let bad = || format!("{s:?}: expected COLSxROWS, two whole numbers such as 512x256");
+        let (c, r) = s.split_once(['x', 'X', '×']).ok_or_else(bad)?;
+        Ok((
+            c.trim().parse().map_err(|_| bad())?,
+            r.trim().parse().map_err(|_| bad())?,
+        ))
+    }
 }
 
 /// The render camera as plain numbers (the layer below `plan`).
@@ -711,6 +721,26 @@ mod tests {
         warp: false,
         ray_cast: true,
     };
+
+    #[test]
+    fn the_grid_flag_parses_cols_by_rows_and_names_what_it_expected() {
+        let parse = ProjGridSettings::parse_grid;
+        assert_eq!(parse("512x256"), Ok((512, 256)));
+        assert_eq!(parse("64 × 32"), Ok((64, 32)));
+        assert_eq!(parse("8X4"), Ok((8, 4)));
+        for bad in ["512", "x", "512x", "ax4", "-1x4", "1.5x2"] {
+            let e = parse(bad).unwrap_err();
+            assert!(e.contains("expected COLSxROWS"), "{bad:?}: {e}");
+        }
+        // Parsed is not valid: the settings still refuse an empty grid.
+        let (cols, rows) = parse("0x16").unwrap();
+        let grid = ProjGridSettings {
+            cols,
+            rows,
+            ..Default::default()
+        };
+        assert!(grid.validate().is_err());
+    }
 
     fn camera(lat_deg: f64, altitude_m: f64, pitch_deg: f64) -> Camera {
         Camera {

@@ -404,7 +404,8 @@ impl TerrainRenderer {
         timeout: std::time::Duration,
     ) -> Result<(), RenderError> {
         let deadline = std::time::Instant::now() + timeout;
-        let mut first_settled = None;
+        // Once settled: the fewest tiles the culling bounds lacked so far, and since when.
+        let mut grace: Option<(usize, std::time::Instant)> = None;
         loop {
             let mut encoder = ctx
                 .device
@@ -416,18 +417,24 @@ impl TerrainRenderer {
             if info.settled() {
                 // A settled frame may still lack tiles wanted only for the culling bounds: its
                 // image is whole, but with the tighter bounds the next frame culls other
-                // sectors (`north-pole`, one run in six: 17 984 triangles, then 10 486). Wait a little for them, so that the frame settled is the
-                // one the view keeps; a budget too small to hold them costs only the grace.
+                // sectors (`north-pole`, one run in six: 17 984 triangles, then 10 486). Wait
+                // for them while they keep coming: the grace runs from the last time fewer
+                // were missing than ever before, so a machine slowed by other work waits as
+                // long as tiles arrive, and a budget too small to hold them (they leave as
+                // others arrive) costs only the grace.
                 let now = std::time::Instant::now();
-                let settled_at = *first_settled.get_or_insert(now);
                 // The frame's culling runs after its feed update: its misses show only here.
-                let bounds_missing = info.stream.as_ref().is_some_and(|s| s.tiles_missing > 0)
-                    || self
+                let missing = info.stream.as_ref().map_or(0, |s| s.tiles_missing as usize)
+                    + self
                         .passes
                         .feed
                         .as_ref()
-                        .is_some_and(|f| f.tiles().queries_missed());
-                if !bounds_missing || now >= deadline.min(settled_at + SETTLE_BOUNDS_GRACE) {
+                        .map_or(0, |f| f.tiles().queries_missing());
+                let (fewest, since) = grace.get_or_insert((missing, now));
+                if missing < *fewest {
+                    (*fewest, *since) = (missing, now);
+                }
+                if missing == 0 || now >= deadline.min(*since + SETTLE_BOUNDS_GRACE) {
                     return Ok(());
                 }
                 if let Some(feed) = &mut self.passes.feed {

@@ -32,6 +32,7 @@
 pub mod cache;
 pub mod open;
 pub mod remote;
+pub mod settings;
 pub mod source;
 pub mod streamer;
 
@@ -39,6 +40,7 @@ pub use crate::dem::remote::{RemoteOptions, RemoteStats, RemoteStore};
 pub use cache::TileCache;
 pub use open::open_source;
 pub use remote::RemoteTileSource;
+pub use settings::{LatencyMs, StreamSettingsError};
 pub use source::{FaultSettings, FaultyTileSource, MmapTileSource, TileData, TileSource};
 pub use streamer::raw_read_rate;
 pub use streamer::{Completion, StreamStats, TileStreamer};

@@ -85,10 +85,11 @@ impl TilesAtHand {
         self.water_level_m = level_m;
     }
 
-    /// Whether a question (camera height, culling bounds) missed a tile since the last
-    /// update: the frame's culling, which runs after the update, used a coarser level's bounds.
-    pub fn queries_missed(&self) -> bool {
-        !self.missing.borrow().is_empty()
+    /// How many tiles a question (camera height, culling bounds) missed since the last update:
+    /// with any, the frame's culling, which runs after the update, used a coarser level's
+    /// bounds.
+    pub fn queries_missing(&self) -> usize {
+        self.missing.borrow().len()
     }
 
     /// Whether the last camera ground came from coarser tiles than its own.

@@ -11,6 +11,7 @@ use globe::planar::geomip::GeomipSettings;
 use globe::planar::projgrid::ProjGridSettings;
 use globe::procedural::DetailSpec;
 use globe::progress::Progress;
+pub use globe::stream::LatencyMs;
 use globe::stream::{FaultSettings, StreamSettings};
 use globe::terrain::Terrain;
 
@@ -233,7 +234,7 @@ pub struct LodArgs {
     #[arg(long, value_name = "on|off", default_value = "on")]
     pub geomorph: Switch,
     /// The projected grid's cells, COLSxROWS (e.g. 512x256).
-    #[arg(long, value_name = "COLSxROWS", default_value = "256x256", value_parser = parse_grid)]
+    #[arg(long, value_name = "COLSxROWS", default_value = "256x256", value_parser = ProjGridSettings::parse_grid)]
     pub grid: (u32, u32),
     /// The projected grid's error threshold γ: cells whose screen-space error bound exceeds it
     /// are ray cast, pixels (> 0).
@@ -247,16 +248,6 @@ pub struct LodArgs {
     /// Ray casting of the projected grid's cells whose error exceeds γ.
     #[arg(long = "ray-cast", value_name = "on|off", default_value = "on")]
     pub ray_cast: Switch,
-}
-
-/// `--grid COLSxROWS`.
-pub fn parse_grid(s: &str) -> Result<(u32, u32), String> {
-    let bad = || format!("{s:?}: expected COLSxROWS, two whole numbers such as 512x256");
-    let (c, r) = s.split_once(['x', 'X', '×']).ok_or_else(bad)?;
-    Ok((
-        c.trim().parse().map_err(|_| bad())?,
-        r.trim().parse().map_err(|_| bad())?,
-    ))
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -326,55 +317,6 @@ pub struct StreamArgs {
     pub max_in_flight: usize,
 }
 
-/// A tile read's added latency: fixed, or drawn per read from a range.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct LatencyMs {
-    pub min: u64,
-    pub max: u64,
-}
-
-impl std::fmt::Display for LatencyMs {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        if self.max > self.min {
-            write!(f, "{}-{}", self.min, self.max)
-        } else {
-            write!(f, "{}", self.min)
-        }
-    }
-}
-
-impl std::str::FromStr for LatencyMs {
-    type Err = String;
-
-    fn from_str(text: &str) -> Result<Self, String> {
-        let number = |t: &str| {
-            t.trim()
-                .parse::<u64>()
-                .map_err(|_| format!("`{text}` is not MS or MIN-MAX in whole milliseconds"))
-        };
-        match text.split_once('-') {
-            None => number(text).map(|ms| LatencyMs { min: ms, max: ms }),
-            Some((a, b)) => {
-                let (min, max) = (number(a)?, number(b)?);
-                if max < min {
-                    return Err(format!(
-                        "`{text}`: the range's maximum is below its minimum"
-                    ));
-                }
-                Ok(LatencyMs { min, max })
-            }
-        }
-    }
-}
-
-/// The latency the faults inject, as `--tile-latency-ms` takes it.
-pub fn latency_of(f: &FaultSettings) -> LatencyMs {
-    LatencyMs {
-        min: f.latency_ms,
-        max: f.latency_max_ms.max(f.latency_ms),
-    }
-}
-
 impl StreamArgs {
     /// The latencies asked for, or `default` when none were.
     pub fn latencies(&self, default: LatencyMs) -> Vec<LatencyMs> {
@@ -392,26 +334,7 @@ impl StreamArgs {
         latency: LatencyMs,
         default_fail_rate: f64,
     ) -> anyhow::Result<StreamSettings> {
-        let fail_rate = self.tile_fail_rate.unwrap_or(default_fail_rate);
-        if !(0.0..=1.0).contains(&fail_rate) {
-            bail!("--tile-fail-rate must be between 0 and 1 (got {fail_rate})");
-        }
-        if fail_rate >= 1.0 {
-            bail!("--tile-fail-rate 1 would fail every read: no tile could ever load");
-        }
-        // The smallest --gpu-tiles that works depends on the view: the renderer names it on
-        // the view's first frames (`GpuTilesShort`). --cache-mb has none: the LRU keeps what
-        // the frame in progress needs even beyond its budget.
-        if self.max_in_flight == 0 {
-            bail!("--max-in-flight 0 would never read a tile: the smallest that works is 1");
-        }
-        if self.uploads_per_frame == 0 {
-            bail!(
-                "--uploads-per-frame 0 would never upload a tile to the GPU: the smallest that \
-                 works is 1"
-            );
-        }
-        Ok(StreamSettings {
+        let settings = StreamSettings {
             cache_bytes: self.cache_mb.saturating_mul(1 << 20),
             gpu_tiles: self.gpu_tiles,
             uploads_per_frame: self.uploads_per_frame,
@@ -419,11 +342,13 @@ impl StreamArgs {
             faults: FaultSettings {
                 latency_ms: latency.min,
                 latency_max_ms: latency.max,
-                fail_rate,
+                fail_rate: self.tile_fail_rate.unwrap_or(default_fail_rate),
                 seed: 0x5EED,
             },
             ..StreamSettings::default()
-        })
+        };
+        settings.validate()?;
+        Ok(settings)
     }
 
     /// The settings, for commands that take one latency.
@@ -452,11 +377,7 @@ pub const DEFAULT_MEASURE_TIMEOUT_S: f64 = 3600.0;
 
 impl MeasureArgs {
     pub fn limit(&self) -> anyhow::Result<Option<std::time::Duration>> {
-        let s = self.measure_timeout_s;
-        if !(s >= 0.0 && s.is_finite()) {
-            bail!("--measure-timeout must be 0 (no limit) or a number of seconds (got {s})");
-        }
-        Ok((s > 0.0).then(|| std::time::Duration::from_secs_f64(s)))
+        Ok(globe::measure::time_limit(self.measure_timeout_s)?)
     }
 
     /// Names the flag when the reference ray cast stopped at its limit.

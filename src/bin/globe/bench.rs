@@ -297,7 +297,7 @@ fn print_latency_ratios(runs: &[BenchRun]) {
         let cpu = r.cpu_ms().map(|s| s.0).unwrap_or(f64::NAN);
         eprintln!(
             "  latency {:>7} ms: {cpu:8.3} ms  ratio {:.3}",
-            latency_of(&r.options.stream.faults).to_string(),
+            LatencyMs::of(&r.options.stream.faults).to_string(),
             cpu / base
         );
     }
@@ -311,7 +311,7 @@ pub fn print_bench(run: &globe::instruments::bench::BenchRun) {
         o.width,
         o.height,
         run.frames.len(),
-        latency_of(&o.stream.faults),
+        LatencyMs::of(&o.stream.faults),
         o.stream.faults.fail_rate
     );
     if let Some((m, lo, hi)) = run.cpu_ms() {

@@ -41,7 +41,7 @@ pub struct FrameInfo {
 }
 
 /// How long [`TerrainRenderer::settle_or_explain`] waits, once a frame is settled, for the
-/// tiles only its culling bounds still lack.
+/// tiles only its culling bounds still lack, from the last time fewer were missing than before.
 pub(super) const SETTLE_BOUNDS_GRACE: std::time::Duration = std::time::Duration::from_secs(2);
 
 impl FrameInfo {
