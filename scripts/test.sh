@@ -55,17 +55,35 @@ export GLOBE_REQUIRE_DATA=1
 export XDG_RUNTIME_DIR="${XDG_RUNTIME_DIR:-$(mktemp -d)}"
 if [ $# -gt 0 ]; then
     cargo test --workspace "$@"
-else
-    # The rendering tests one at a time, as when each had its own binary: their GPU work is
-    # serialised anyway (tests/common), and a CPU-heavy test beside one slows its streaming
-    # enough to show a settle race (docs/testing.md#the-test-binaries).
-    cargo test --workspace --lib --bins --test cpu --test formats --test cli --test fuzz --test globe_data
+    exit
+fi
+
+# Every test binary built first (one cargo build), then the rendering tests in the background
+# beside the others: their GPU work is serialised (tests/common) and leaves about a third of
+# the second core idle (a software rasteriser and the reference ray cast in turn), which the
+# CPU, format and command-line tests fill. The rendering tests run one at a time, as when each
+# had its own binary; their output is printed whole when they end.
+suites=(--workspace --lib --bins --test cpu --test formats --test cli --test fuzz --test globe_data)
+cargo test "${suites[@]}" --test gpu --no-run
+gpu_log=$(mktemp)
+(
     cargo test --test gpu -- --test-threads=1
-    cargo test --workspace --doc
-fi
-# The GPU-against-f64 tests once more with every builtin sin/cos as coarse as an NVIDIA GPU's
-# (shaders/common/trig.wgsl says why): a software adapter's builtins are exact to rounding, so
-# only this shows code that a real GPU would break.
-if [ $# -eq 0 ]; then
+    # The GPU-against-f64 tests once more with every builtin sin/cos as coarse as an NVIDIA
+    # GPU's (shaders/common/trig.wgsl says why): a software adapter's builtins are exact to
+    # rounding, so only this shows code that a real GPU would break.
     GLOBE_COARSE_TRIG=1 cargo test --test gpu -- gpu_detail:: gpu_normals:: gpu_transform::
+) >"$gpu_log" 2>&1 &
+gpu_pid=$!
+status=0
+cargo test "${suites[@]}" || status=$?
+cargo test --workspace --doc || status=$?
+gpu_status=0
+wait "$gpu_pid" || gpu_status=$?
+echo "scripts/test.sh: the rendering tests (tests/gpu), run beside the others:"
+cat "$gpu_log"
+rm -f "$gpu_log"
+if [ "$gpu_status" -ne 0 ]; then
+    echo "scripts/test.sh: the rendering tests failed" >&2
+    status=$gpu_status
 fi
+exit "$status"

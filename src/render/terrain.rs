@@ -404,8 +404,9 @@ impl TerrainRenderer {
         timeout: std::time::Duration,
     ) -> Result<(), RenderError> {
         let deadline = std::time::Instant::now() + timeout;
-        // Once settled: the fewest tiles the culling bounds lacked so far, and since when.
-        let mut grace: Option<(usize, std::time::Instant)> = None;
+        // Once settled: the fewest tiles the culling bounds lacked so far, since when, and the
+        // failed reads by then.
+        let mut grace: Option<(usize, std::time::Instant, u64)> = None;
         loop {
             let mut encoder = ctx
                 .device
@@ -416,12 +417,11 @@ impl TerrainRenderer {
             ctx.queue.submit([encoder.finish()]);
             if info.settled() {
                 // A settled frame may still lack tiles wanted only for the culling bounds: its
-                // image is whole, but with the tighter bounds the next frame culls other
-                // sectors (`north-pole`, one run in six: 17 984 triangles, then 10 486). Wait
-                // for them while they keep coming: the grace runs from the last time fewer
-                // were missing than ever before, so a machine slowed by other work waits as
-                // long as tiles arrive, and a budget too small to hold them (they leave as
-                // others arrive) costs only the grace.
+                // image is whole, but with the tighter bounds the next frame plans otherwise
+                // (`north-pole`: 532 sectors culled, then 308, the same draws). Wait for them
+                // while they can come: until the deadline while the LRU has room for them and
+                // no read has failed; else (they would leave as others arrive, or a read
+                // fails) for the grace from the last time fewer were missing than before.
                 let now = std::time::Instant::now();
                 // The frame's culling runs after its feed update: its misses show only here.
                 let missing = info.stream.as_ref().map_or(0, |s| s.tiles_missing as usize)
@@ -430,11 +430,21 @@ impl TerrainRenderer {
                         .feed
                         .as_ref()
                         .map_or(0, |f| f.tiles().queries_missing());
-                let (fewest, since) = grace.get_or_insert((missing, now));
+                let failed = info.stream.as_ref().map_or(0, |s| s.stream.tiles_failed);
+                let (fewest, since, failed_then) = grace.get_or_insert((missing, now, failed));
                 if missing < *fewest {
                     (*fewest, *since) = (missing, now);
                 }
-                if missing == 0 || now >= deadline.min(*since + SETTLE_BOUNDS_GRACE) {
+                let room = info.stream.as_ref().is_some_and(|s| {
+                    let per_tile = s.cache_bytes / (s.cache_tiles.max(1) as u64);
+                    s.cache_bytes + missing as u64 * per_tile <= s.cache_budget
+                });
+                let waiting = if room && failed == *failed_then {
+                    deadline
+                } else {
+                    deadline.min(*since + SETTLE_BOUNDS_GRACE)
+                };
+                if missing == 0 || now >= waiting {
                     return Ok(());
                 }
                 if let Some(feed) = &mut self.passes.feed {

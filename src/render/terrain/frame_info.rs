@@ -41,7 +41,8 @@ pub struct FrameInfo {
 }
 
 /// How long [`TerrainRenderer::settle_or_explain`] waits, once a frame is settled, for the
-/// tiles only its culling bounds still lack, from the last time fewer were missing than before.
+/// tiles only its culling bounds still lack when the LRU cannot hold them or a read failed:
+/// from the last time fewer were missing than before.
 pub(super) const SETTLE_BOUNDS_GRACE: std::time::Duration = std::time::Duration::from_secs(2);
 
 impl FrameInfo {
