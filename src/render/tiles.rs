@@ -12,7 +12,6 @@ use wgpu::util::DeviceExt;
 use crate::dem::pyramid::Pyramid;
 use crate::stream::{TileData, TileKey};
 
-pub use super::gpu_data::DemFillParams;
 use super::shader::NO_SLOT;
 
 /// Tiles resident on the GPU.

@@ -92,11 +92,6 @@ impl TilesAtHand {
         self.missing.borrow().len()
     }
 
-    /// Whether the last camera ground came from coarser tiles than its own.
-    pub fn fell_back(&self) -> bool {
-        self.fell_back.get()
-    }
-
     /// The update's start: the tiles read since the last one (sorted, once each), those the
     /// camera's ground read or missed, and those missed with their priority; each set empties.
     pub fn take_marks(&self) -> (Vec<TileKey>, HashSet<TileKey>, HashMap<TileKey, Priority>) {
