@@ -17,6 +17,12 @@
 // (sin θ = 0) the second slope is taken along the meridian a quarter turn on (column i + S/4:
 // a grid holding a pole always spans the whole circle).
 // Rust twin: render::normals::texel_normal (f64, used by tests/gpu/gpu_normals.rs).
+//
+// The same pass writes the noise that perturbs the surface types' boundaries (issue 35: the
+// look's view-independent part once per texel, not per pixel per frame): two octaves of
+// world-stable value noise band-limited to the texel. The fragment reads it filtered, as it
+// reads the normal, and takes the types' weights from it, its height and slope.
+// Rust twin: render::normals::texel_boundary_noise.
 
 // Rust twin: render::gpu_data::NormalParams (layout checked by tests/cpu/shader_contract.rs).
 struct NormalParams {
@@ -36,12 +42,19 @@ struct NormalParams {
     ref_m: f32,           // the level's reference height: the texture holds h − ref_m
     _pad0: u32,
     _pad1: u32,
+    // The boundary noise's lattices around the anchor's point at ref_m (cell, seed; remainder,
+    // 1/cell), world frame.
+    boundary_cell0: vec4<i32>,
+    boundary_frac0: vec4<f32>,
+    boundary_cell1: vec4<i32>,
+    boundary_frac1: vec4<f32>,
 }
 
 @group(0) @binding(0) var<uniform> params: NormalParams;
 @group(0) @binding(1) var heights: texture_2d_array<f32>;
 @group(0) @binding(2) var partials: texture_2d_array<f32>;
 @group(0) @binding(3) var out_normals: texture_storage_2d_array<rgba16float, write>;
+@group(0) @binding(4) var out_materials: texture_storage_2d_array<rgba8unorm, write>;
 
 // Height of the grid point (i, j) from the job's first one: (level heights, partial octaves)
 // apart, so that differences of nearby points lose nothing to the f32 sum of the two (at a
@@ -64,6 +77,27 @@ fn height_at(i: i32, j: i32) -> vec2<f32> {
 fn height_difference(a: vec2<f32>, b: vec2<f32>) -> f32 {
     let d = a - b;
     return d.x + d.y;
+}
+
+// One octave of the boundary noise at world offset wrel (m) from the lattice's anchor, faded
+// out from four texels of `footprint_m` per cell to two (the texels' bilinear filter then
+// reconstructs what is left without aliasing).
+fn boundary_octave(cell: vec4<i32>, frac: vec4<f32>, wrel: vec3<f32>, footprint_m: f32) -> f32 {
+    let x = frac.xyz + wrel * frac.w;
+    let fl = floor(x);
+    let v = value_noise(cell.xyz + vec3<i32>(fl), x - fl, bitcast<u32>(cell.w));
+    return v * (1.0 - smoothstep(0.5, 1.0, footprint_m * frac.w));
+}
+
+
+// The texel's boundary noise, with `rel` its world offset from the anchor's point and
+// `footprint_m` the texel's size: (½ + ½·na, ½ + ½·nb, 0, 0), the two octaves apart, so
+// that a fragment can fade each out by its own footprint as well (where a pixel spans more
+// than a texel) before it combines them into the surface types' perturbation.
+fn texel_boundary_noise(rel: vec3<f32>, footprint_m: f32) -> vec4<f32> {
+    let na = boundary_octave(params.boundary_cell0, params.boundary_frac0, rel, footprint_m);
+    let nb = boundary_octave(params.boundary_cell1, params.boundary_frac1, rel, footprint_m);
+    return vec4<f32>(0.5 + 0.5 * na, 0.5 + 0.5 * nb, 0.0, 0.0);
 }
 
 @compute @workgroup_size(WORKGROUP_SIZE, WORKGROUP_SIZE, 1)
@@ -108,6 +142,18 @@ fn cs_main(@builtin(global_invocation_id) id: vec3<u32>) {
         n = up - s_theta * e_theta - s_phi * e_phi;
     }
     let slot = (params.slot0 + id.xy) % vec2<u32>(params.size);
+    let unit_n = normalize(n);
+    let h = (params.ref_m + h0.x) + h0.y;
     // w: the height, for the fragment's colour (f16 keeps metres; colour needs no more).
-    textureStore(out_normals, slot, params.layer, vec4<f32>(normalize(n), (params.ref_m + h0.x) + h0.y));
+    textureStore(out_normals, slot, params.layer, vec4<f32>(unit_n, h));
+    // The texel's world offset from the anchor's point at ref_m, without cancellation:
+    // (R + ref)(û − û0) + (h − ref)·û, û − û0 from the angle differences (noise.wgsl).
+    let d_st = delta_sin(params.trig.x, params.trig.y, a);
+    let d_ct = delta_cos(params.trig.x, params.trig.y, a);
+    let d_sp = delta_sin(params.trig.z, params.trig.w, b);
+    let d_cp = delta_cos(params.trig.z, params.trig.w, b);
+    let d_up = vec3<f32>(d_st * cp + params.trig.x * d_cp, d_st * sp + params.trig.x * d_sp, d_ct);
+    let rel = (params.radius_m + params.ref_m) * d_up + (h0.x + h0.y) * up;
+    let footprint_m = params.radius_m * max(dtheta, abs(st) * dphi);
+    textureStore(out_materials, slot, params.layer, texel_boundary_noise(rel, footprint_m));
 }

@@ -181,6 +181,8 @@ override WIRE_OVERLAY: bool = false;
 // rg: wave slopes (look::proto::wave_texture).
 @group(0) @binding(11) var waves: texture_2d<f32>;
 @group(0) @binding(12) var look_sampler: sampler;
+// The levels' boundary noise (fill_normals.wgsl): ½ + ½·na, ½ + ½·nb (its two octaves).
+@group(0) @binding(13) var boundary_noise: texture_2d_array<f32>;
 // The ring mesh's triangle list, read by the wireframe draws (vs_main_wire).
 @group(0) @binding(15) var<storage, read> ring_indices: array<u32>;
 
@@ -633,6 +635,15 @@ fn level_normal(level: u32, d: vec2<f32>) -> vec4<f32> {
     return textureSampleLevel(normals, normal_sampler, uv, i32(level), 0.0);
 }
 
+// The boundary noise of `level` at map offset d (filtered as the normals are).
+fn level_boundary_noise(level: u32, d: vec2<f32>) -> vec4<f32> {
+    let g = levels[level];
+    let x = d.x * g.inv_dphi + g.grid_x_viewer;
+    let y = d.y * g.inv_dtheta + g.grid_y_viewer;
+    let uv = (vec2<f32>(x, y) + 0.5) / f32(frame.texture_size);
+    return textureSampleLevel(boundary_noise, normal_sampler, uv, i32(level), 0.0);
+}
+
 // Hypsometric tint: bathymetry blues, lowland greens, upland browns, rock, snow.
 fn hypsometric(h: f32) -> vec3<f32> {
     if h < 0.0 {
@@ -814,8 +825,6 @@ fn shade(in_: VertexOut, rel_d: vec3<f32>) -> vec4<f32> {
     let uvw = look.tex_anchor.xyz + wrel * look.tex_anchor.w;
     let uvw_dx = wrel_dx * look.tex_anchor.w;
     let uvw_dy = wrel_dy * look.tex_anchor.w;
-    // Metres of world per pixel (the boundary noise's band limit).
-    let footprint_m = max(length(wrel_dx), length(wrel_dy));
     let drift = look.time_s * vec3<f32>(0.011, 0.007, 0.005);
     let w0 = look.wave_anchor0.xyz + wrel * look.wave_anchor0.w + drift;
     let w1 = look.wave_anchor1.xyz + wrel * look.wave_anchor1.w - 1.7 * drift;
@@ -827,12 +836,29 @@ fn shade(in_: VertexOut, rel_d: vec3<f32>) -> vec4<f32> {
     let level = in.level;
     let blend = clamp(in.coarse_blend, 0.0, 1.0);
     var nh = level_normal(level, in.map_pos);
+    // The boundary noise (the view-independent part of the look, filled with the level;
+    // 0 in FAR frames, whose every pixel fades it out): read unconditionally otherwise, as
+    // every texture read here (lavapipe, see Planes).
+    var noise = vec4<f32>(0.5);
+    if !FAR {
+        noise = level_boundary_noise(level, in.map_pos);
+    }
     if BLEND && blend > 0.0 {
         nh = mix(nh, level_normal(level - 1u, in.map_pos), blend);
+        if !FAR {
+            noise = mix(noise, level_boundary_noise(level - 1u, in.map_pos), blend);
+        }
     }
     let nw = nh.xyz;
     var n = normalize(view_from_world(nw));
     let n_geometry = n;
+    // Each octave also faded out where a pixel spans more than a quarter of its cell (the
+    // texel's band limit is the fill's).
+    let footprint_m = max(length(wrel_dx), length(wrel_dy));
+    let na = (2.0 * noise.x - 1.0) * (1.0 - smoothstep(0.125, 0.25, footprint_m * look.boundary_frac0.w));
+    let nb = (2.0 * noise.y - 1.0) * (1.0 - smoothstep(0.125, 0.25, footprint_m * look.boundary_frac1.w));
+    let q = clamp(1.6 * na + 0.8 * nb, -1.0, 1.0);
+    let patches = clamp(0.5 + 1.2 * nb - 0.8 * na, 0.0, 1.0);
     if DETAIL && BUMP && bump.lambda_px.z > 0.0 {
         // The footprint along the view is stretched by 1/cos of the incidence (grazing views
         // would alias the bump otherwise), up to 10×.
@@ -882,24 +908,13 @@ fn shade(in_: VertexOut, rel_d: vec3<f32>) -> vec4<f32> {
             // Sea ice toward the poles (from 77° to 80° of latitude, the edge perturbed like
             // the land's boundaries): a surface type, not geometry (the surface stays at the
             // water level).
-            var na = 0.0;
-            if !FAR {
-                na = boundary_octave(look.boundary_cell0, look.boundary_frac0, wrel, footprint_m);
-            }
             let ice = smoothstep(0.974, 0.985, abs(world_up.z) + 0.01 * na);
             let ice_c = sample_albedo(4u, uvw, uvw_dx, uvw_dy, pw) * (ambient + direct * max(dot(up, sun), 0.0));
             colour = mix(colour, ice_c, ice);
         }
     } else if TEXTURES && h >= 0.0 {
-        // Proto-texturing (§4.2) by height, slope and latitude, boundaries perturbed.
-        var na = 0.0;
-        var nb = 0.0;
-        if !FAR {
-            na = boundary_octave(look.boundary_cell0, look.boundary_frac0, wrel, footprint_m);
-            nb = boundary_octave(look.boundary_cell1, look.boundary_frac1, wrel, footprint_m);
-        }
-        let q = clamp(1.6 * na + 0.8 * nb, -1.0, 1.0);
-        let patches = clamp(0.5 + 1.2 * nb - 0.8 * na, 0.0, 1.0);
+        // Proto-texturing (§4.2) by height, slope and latitude, boundaries perturbed by the
+        // noise the normal pass wrote per texel.
         let slope_v = 1.0 - clamp(dot(n_geometry, up), 0.0, 1.0);
         let wts = material_weights(h, slope_v, abs(world_up.z), q, patches);
         // The layered weights (each type over the ones before it) as one weight per type,

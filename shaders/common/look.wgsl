@@ -162,15 +162,6 @@ fn tone_map(c: vec3<f32>) -> vec3<f32> {
     return vec3<f32>(1.0) - exp(-look.light.y * max(c, vec3<f32>(0.0)));
 }
 
-// One octave of the boundary noise at the eye-relative world offset wrel (m), faded out where
-// its cell spans fewer than four pixels of footprint `footprint_m` (no aliasing).
-fn boundary_octave(cell: vec4<i32>, frac: vec4<f32>, wrel: vec3<f32>, footprint_m: f32) -> f32 {
-    let x = frac.xyz + wrel * frac.w;
-    let fl = floor(x);
-    let v = value_noise(cell.xyz + vec3<i32>(fl), x - fl, bitcast<u32>(cell.w));
-    return v * (1.0 - smoothstep(0.125, 0.25, footprint_m * frac.w));
-}
-
 // ---------------------------------------------------------------------------------------------
 // Proto-texturing (infinite-landscapes-projected-grid.md §4.2).
 

@@ -51,6 +51,8 @@ pub const TEXTURE_TILE_M: f64 = 8.0;
 /// Cells of the two octaves of value noise that perturb the surface types' boundaries, metres
 /// (types change over kilometres and hundreds of metres, not along contour lines).
 pub const BOUNDARY_CELLS_M: [f64; 2] = [2_700.0, 610.0];
+/// The hash seeds of those two octaves.
+pub const BOUNDARY_SEEDS: [u32; 2] = [0x9e37_79b9, 0x7f4a_7c15];
 /// Tiles of the two wave scales, metres.
 pub const WAVE_TILES_M: [f64; 2] = [37.0, 9.0];
 /// The water level `--water on` puts water at, metres: the sea (a DEM's heights are above mean

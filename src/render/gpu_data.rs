@@ -14,7 +14,7 @@ use crate::clipmap::density::DensityPlan;
 use crate::clipmap::levels::{GridRect, LevelGrid};
 use crate::clipmap::{ClipmapSettings, RingVertex};
 use crate::geo::map_transform::{Stretch, TransformUniformsF32};
-use crate::look::{Atmosphere, LookSettings};
+use crate::look::{Atmosphere, BOUNDARY_CELLS_M, BOUNDARY_SEEDS, LookSettings};
 use crate::plan::{ClipmapPlan, GeomipPlan, ViewPlan};
 use crate::planar::geomip::Patch;
 use crate::procedural::{Detail, LevelOctaves, MAX_OCTAVES, OctaveAnchorF32};
@@ -331,6 +331,12 @@ pub struct NormalParams {
     /// The level's reference height: the texture holds h − ref (`LevelGrid::ref_m`).
     pub ref_m: f32,
     pub _pad: [u32; 2],
+    /// The boundary noise's two lattices around the anchor's point at the reference height
+    /// (cell and seed, remainder and 1/cell: `LookUniforms::boundary_*`'s form).
+    pub boundary_cell0: [i32; 4],
+    pub boundary_frac0: [f32; 4],
+    pub boundary_cell1: [i32; 4],
+    pub boundary_frac1: [f32; 4],
 }
 
 impl NormalParams {
@@ -348,6 +354,13 @@ impl NormalParams {
         let theta0 = anchor[1] as f64 * grid.dtheta_rad;
         let (st, ct) = theta0.sin_cos();
         let (sp, cp) = phi0.sin_cos();
+        // The anchor's point at the reference height, in the world frame (ECEF), f64.
+        let anchor_world = DVec3::new(st * cp, st * sp, ct) * (radius_m + grid.ref_m);
+        let boundary = BOUNDARY_CELLS_M
+            .iter()
+            .zip(BOUNDARY_SEEDS)
+            .map(|(&cell_m, seed)| world_lattice(anchor_world, cell_m, seed))
+            .collect::<Vec<_>>();
         let s = grid.size as i64;
         // θ = π is grid row S·2^level/4 (dθ = 4·2^−level·π/S).
         let south = (s << grid.level) / 4;
@@ -380,6 +393,10 @@ impl NormalParams {
             offset_y: (rect.gy0 - anchor[1]) as u32,
             ref_m: grid.ref_m as f32,
             _pad: [0; 2],
+            boundary_cell0: boundary[0].0,
+            boundary_frac0: boundary[0].1,
+            boundary_cell1: boundary[1].0,
+            boundary_frac1: boundary[1].1,
         }
     }
 }
@@ -749,7 +766,8 @@ gpu_struct!(LevelUniforms as "LevelUniforms" {
 });
 gpu_struct!(NormalParams as "NormalParams" {
     slot0, extent, layer, size, partial_count, quarter, angles, trig, radius_m, pole_north,
-    pole_south, offset_x, offset_y, ref_m,
+    pole_south, offset_x, offset_y, ref_m, boundary_cell0, boundary_frac0,
+    boundary_cell1, boundary_frac1,
 });
 gpu_struct!(WaterCullParams as "WaterCullParams" {
     dry_from_m, block, blocks_per_row, job_count, draw_count,
@@ -853,6 +871,18 @@ impl FrameUniforms {
     }
 }
 
+/// The cell of a world lattice of cell `cell_m` holding `point` (world frame, m) with the hash
+/// seed, and the remainder with 1/cell, in f64: the GPU adds only a small offset over the cell.
+pub fn world_lattice(point: DVec3, cell_m: f64, seed: u32) -> ([i32; 4], [f32; 4]) {
+    let e = point / cell_m;
+    let c = e.floor();
+    let f = e - c;
+    (
+        [c.x as i32, c.y as i32, c.z as i32, seed as i32],
+        [f.x as f32, f.y as f32, f.z as f32, (1.0 / cell_m) as f32],
+    )
+}
+
 impl LookUniforms {
     /// The frame's look: `water_level_m` is the terrain's (`None`: no water), `time_s` moves
     /// the waves (0 in PNGs and measurements).
@@ -880,16 +910,7 @@ impl LookUniforms {
             let f = e - e.floor();
             [f.x as f32, f.y as f32, f.z as f32, (1.0 / tile_m) as f32]
         };
-        // The eye's cell of a world lattice of cell `cell_m` and the remainder, in f64.
-        let lattice = |cell_m: f64, seed: u32| {
-            let e = eye_world / cell_m;
-            let c = e.floor();
-            let f = e - c;
-            (
-                [c.x as i32, c.y as i32, c.z as i32, seed as i32],
-                [f.x as f32, f.y as f32, f.z as f32, (1.0 / cell_m) as f32],
-            )
-        };
+        let lattice = |cell_m: f64, seed: u32| world_lattice(eye_world, cell_m, seed);
         let sun = view.sun_view;
         let o = DVec3::new(0.0, 0.0, eye_radius_m);
         let (zenith, horizon) = if look.sky {
@@ -916,10 +937,10 @@ impl LookUniforms {
             world1: row(1),
             world2: row(2),
             tex_anchor: anchor(crate::look::TEXTURE_TILE_M),
-            boundary_cell0: lattice(crate::look::BOUNDARY_CELLS_M[0], 0x9e37_79b9).0,
-            boundary_frac0: lattice(crate::look::BOUNDARY_CELLS_M[0], 0x9e37_79b9).1,
-            boundary_cell1: lattice(crate::look::BOUNDARY_CELLS_M[1], 0x7f4a_7c15).0,
-            boundary_frac1: lattice(crate::look::BOUNDARY_CELLS_M[1], 0x7f4a_7c15).1,
+            boundary_cell0: lattice(BOUNDARY_CELLS_M[0], BOUNDARY_SEEDS[0]).0,
+            boundary_frac0: lattice(BOUNDARY_CELLS_M[0], BOUNDARY_SEEDS[0]).1,
+            boundary_cell1: lattice(BOUNDARY_CELLS_M[1], BOUNDARY_SEEDS[1]).0,
+            boundary_frac1: lattice(BOUNDARY_CELLS_M[1], BOUNDARY_SEEDS[1]).1,
             wave_anchor0: anchor(crate::look::WAVE_TILES_M[0]),
             wave_anchor1: anchor(crate::look::WAVE_TILES_M[1]),
             rayleigh: v4(atmosphere.rayleigh, 1.0 / atmosphere.rayleigh_height_m),

@@ -16,8 +16,10 @@ use super::fill_analytic::FillJob;
 use super::gpu_data::NormalParams;
 use super::shader;
 
-/// Format of the normal textures: a unit world vector (xyz), w unused.
+/// Format of the normal textures: a unit world vector (xyz), the texel's height (w).
 pub const NORMAL_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
+/// Format of the boundary-noise textures ([`texel_boundary_noise`]).
+pub const BOUNDARY_NOISE_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
 
 /// The rectangles whose normals a fill of `rect` into `grid` invalidates: `rect` one texel
 /// wider on each side, within the window.
@@ -62,6 +64,7 @@ impl NormalPass {
         heights: &wgpu::TextureView,
         partials: &wgpu::TextureView,
         normals: &wgpu::TextureView,
+        boundary_noise: &wgpu::TextureView,
     ) -> Self {
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("fill_normals.wgsl"),
@@ -78,22 +81,24 @@ impl NormalPass {
             },
             count: None,
         };
+        let storage = |binding, format| wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility: wgpu::ShaderStages::COMPUTE,
+            ty: wgpu::BindingType::StorageTexture {
+                access: wgpu::StorageTextureAccess::WriteOnly,
+                format,
+                view_dimension: wgpu::TextureViewDimension::D2Array,
+            },
+            count: None,
+        };
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("normal layout"),
             entries: &[
                 params.layout_entry(0),
                 texture(1),
                 texture(2),
-                wgpu::BindGroupLayoutEntry {
-                    binding: 3,
-                    visibility: wgpu::ShaderStages::COMPUTE,
-                    ty: wgpu::BindingType::StorageTexture {
-                        access: wgpu::StorageTextureAccess::WriteOnly,
-                        format: NORMAL_FORMAT,
-                        view_dimension: wgpu::TextureViewDimension::D2Array,
-                    },
-                    count: None,
-                },
+                storage(3, NORMAL_FORMAT),
+                storage(4, BOUNDARY_NOISE_FORMAT),
             ],
         });
         let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
@@ -115,6 +120,10 @@ impl NormalPass {
                 wgpu::BindGroupEntry {
                     binding: 3,
                     resource: wgpu::BindingResource::TextureView(normals),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 4,
+                    resource: wgpu::BindingResource::TextureView(boundary_noise),
                 },
             ],
         });
@@ -236,6 +245,43 @@ pub fn texel_normal(
         up - s_theta * e_theta - s_phi * e_phi
     };
     n.normalize()
+}
+
+/// f64 twin of `fill_normals.wgsl`'s `texel_boundary_noise`: (½ + ½·na, ½ + ½·nb, 0, 0)
+/// of grid point (gx, gy) of `grid` at height `height_m` (its level's texel size the band
+/// limit). The noise is evaluated at the texel's world point in f64 (the shader's
+/// anchor-relative sum in f32 differs by far less than its 8-bit output).
+pub fn texel_boundary_noise(
+    grid: &LevelGrid,
+    gx: i64,
+    gy: i64,
+    radius_m: f64,
+    height_m: f64,
+) -> [f64; 4] {
+    use crate::look::{BOUNDARY_CELLS_M, BOUNDARY_SEEDS};
+    use crate::procedural::noise::value_noise;
+    let (dphi, dtheta) = (grid.dphi_rad, grid.dtheta_rad);
+    let (st, ct) = (gy as f64 * dtheta).sin_cos();
+    let (sp, cp) = (gx as f64 * dphi).sin_cos();
+    let world = DVec3::new(st * cp, st * sp, ct) * (radius_m + height_m);
+    let footprint_m = radius_m * dtheta.max(st.abs() * dphi);
+    let octave = |k: usize| {
+        let x = world / BOUNDARY_CELLS_M[k];
+        let c = x.floor();
+        let v = value_noise(
+            [c.x as i32, c.y as i32, c.z as i32],
+            (x - c).to_array(),
+            BOUNDARY_SEEDS[k],
+        );
+        v * (1.0 - smoothstep(0.5, 1.0, footprint_m / BOUNDARY_CELLS_M[k]))
+    };
+    [0.5 + 0.5 * octave(0), 0.5 + 0.5 * octave(1), 0.0, 0.0]
+}
+
+/// WGSL's `smoothstep`.
+fn smoothstep(e0: f64, e1: f64, x: f64) -> f64 {
+    let t = ((x - e0) / (e1 - e0)).clamp(0.0, 1.0);
+    t * t * (3.0 - 2.0 * t)
 }
 
 #[cfg(test)]

@@ -41,7 +41,7 @@ mod shading;
 mod switches;
 
 pub use frame_info::FrameInfo;
-pub use readback::{LevelNormals, LevelPartials};
+pub use readback::{LevelBoundaryNoise, LevelNormals, LevelPartials};
 pub use shading::{FAR_FOOTPRINT_M, Shading, bump_can_show, far_footprint_m};
 
 use frame_info::SETTLE_BOUNDS_GRACE;

@@ -74,6 +74,7 @@ impl Passes {
             &textures.heights_view,
             &textures.partials_view,
             &textures.normals_view,
+            &textures.boundary_noise_view,
         );
         let water_cull = terrain.water_level_m().is_some().then(|| {
             WaterCull::new(

@@ -115,6 +115,24 @@ impl TerrainRenderer {
         Ok(Some((grid, out)))
     }
 
+    /// The level's boundary noise (`render::normals::texel_boundary_noise`, 8 bits a channel,
+    /// as 0..1) in grid order as [`TerrainRenderer::read_level`].
+    pub fn read_level_boundary_noise(
+        &self,
+        ctx: &GpuContext,
+        level: u32,
+    ) -> Result<Option<LevelBoundaryNoise>, RenderError> {
+        let Some(grid) = self.grids.get(level as usize).copied().flatten() else {
+            return Ok(None);
+        };
+        let texels = self.read_layer(ctx, &self.textures.boundary_noise, &grid, 4)?;
+        let out = texels
+            .iter()
+            .map(|b| std::array::from_fn(|c| f32::from(b[c]) / 255.0))
+            .collect();
+        Ok(Some((grid, out)))
+    }
+
     /// The texels of `texture`'s layer `grid.level` in grid order (row gy0 first, column gx0
     /// first), `bytes` each.
     fn read_layer(
@@ -188,6 +206,8 @@ impl TerrainRenderer {
 
 /// A level's grid and its world-frame normal per grid point.
 pub type LevelNormals = (LevelGrid, Vec<[f32; 3]>);
+/// A level's grid and its boundary noise (RGBA, 0..1) in grid order.
+pub type LevelBoundaryNoise = (LevelGrid, Vec<[f32; 4]>);
 
 /// A level's grid, the index of its first partial octave and the partials per grid point.
 pub type LevelPartials = (LevelGrid, u32, Vec<[f32; 4]>);

@@ -8,7 +8,7 @@ use crate::clipmap::{ClipmapSettings, RingMesh};
 use crate::render::detail::{self, DetailResources};
 use crate::render::gpu_data::{BumpUniforms, FrameUniforms, LevelUniforms};
 use crate::render::look::LookResources;
-use crate::render::normals::NORMAL_FORMAT;
+use crate::render::normals::{BOUNDARY_NOISE_FORMAT, NORMAL_FORMAT};
 use crate::render::shader::MAX_LEVELS;
 
 /// The static ring mesh on the GPU and the uniform buffers each frame rewrites.
@@ -63,7 +63,7 @@ impl FrameBuffers {
 }
 
 /// The level textures, one layer per clipmap level: the heights the fills write, the detail's
-/// partial octaves, and the normals the normal pass derives from both.
+/// partial octaves, and the normals and surface types the normal pass derives from both.
 pub(super) struct LevelTextures {
     pub(super) heights: wgpu::Texture,
     pub(super) heights_view: wgpu::TextureView,
@@ -71,6 +71,8 @@ pub(super) struct LevelTextures {
     pub(super) partials_view: wgpu::TextureView,
     pub(super) normals: wgpu::Texture,
     pub(super) normals_view: wgpu::TextureView,
+    pub(super) boundary_noise: wgpu::Texture,
+    pub(super) boundary_noise_view: wgpu::TextureView,
     pub(super) normal_sampler: wgpu::Sampler,
 }
 
@@ -94,6 +96,14 @@ impl LevelTextures {
             wgpu::TextureUsages::empty(),
         );
         let normals_view = array_view(&normals);
+        let boundary_noise = level_array(
+            device,
+            settings,
+            "clipmap boundary noise",
+            BOUNDARY_NOISE_FORMAT,
+            wgpu::TextureUsages::empty(),
+        );
+        let boundary_noise_view = array_view(&boundary_noise);
         // Bilinear and toroidal: texel (x, y) holds grid point x, y mod S.
         let normal_sampler = device.create_sampler(&wgpu::SamplerDescriptor {
             label: Some("normal sampler"),
@@ -110,6 +120,8 @@ impl LevelTextures {
             partials_view,
             normals,
             normals_view,
+            boundary_noise,
+            boundary_noise_view,
             normal_sampler,
         }
     }
@@ -224,6 +236,7 @@ pub(super) fn bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout 
                 ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
                 count: None,
             },
+            texture_entry(13, fragment, true),
             storage_entry(15, wgpu::ShaderStages::VERTEX),
         ],
     })
@@ -293,6 +306,10 @@ pub(super) fn bind_group(
             wgpu::BindGroupEntry {
                 binding: 12,
                 resource: wgpu::BindingResource::Sampler(&look.sampler),
+            },
+            wgpu::BindGroupEntry {
+                binding: 13,
+                resource: wgpu::BindingResource::TextureView(&textures.boundary_noise_view),
             },
             wgpu::BindGroupEntry {
                 binding: 15,
