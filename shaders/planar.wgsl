@@ -420,15 +420,6 @@ fn fs_projgrid_ray(in: VertexOut) -> RayCastOut {
             v.map_pos = pt.at.d;
             v.level = pt.level;
             v.coarse_blend = pt.at.blend;
-            if SKY {
-                // The haze toward the hit, not the cell's vertices': a far cell's fragment
-                // whose ray meets a nearer ridge would otherwise carry the horizon's haze.
-                let eye = vec3<f32>(0.0, 0.0, look.eye_radius_m);
-                let sc = atmosphere_scatter(eye, dir, hit.x, look.sun.xyz, 6u);
-                v.inscatter = sc.inscatter;
-                v.view_t = sc.transmittance;
-                v.sun_t = sun_transmittance(eye + rel, look.sun.xyz);
-            }
         }
     }
     var out: RayCastOut;

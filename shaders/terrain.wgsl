@@ -109,11 +109,6 @@ struct VertexOut {
     @location(3) @interpolate(flat) level: u32,
     // Position relative to the eye, metres (the bump's pixel footprint).
     @location(4) rel: vec3<f32>,
-    // Aerial perspective (SKY): light scattered in between the eye and the vertex, the
-    // segment's transmittance and the sunlight reaching the vertex (common/look.wgsl).
-    @location(5) inscatter: vec3<f32>,
-    @location(6) view_t: vec3<f32>,
-    @location(7) sun_t: vec3<f32>,
     // Plane coordinates of a planar LOD method's frame (planar.wgsl): where the clipmap
     // leaves the ground to it.
     @location(8) plane_xy: vec2<f32>,
@@ -183,6 +178,11 @@ override WIRE_OVERLAY: bool = false;
 @group(0) @binding(12) var look_sampler: sampler;
 // The levels' boundary noise (fill_normals.wgsl): ½ + ½·na, ½ + ½·nb (its two octaves).
 @group(0) @binding(13) var boundary_noise: texture_2d_array<f32>;
+// The aerial-perspective volume (aerial.wgsl): in-scattered light and transmittance from the
+// eye to each slice's distance, per cell of the frame.
+@group(0) @binding(14) var aerial_inscatter: texture_3d<f32>;
+@group(0) @binding(16) var aerial_transmittance: texture_3d<f32>;
+@group(0) @binding(17) var aerial_sampler: sampler;
 // The ring mesh's triangle list, read by the wireframe draws (vs_main_wire).
 @group(0) @binding(15) var<storage, read> ring_indices: array<u32>;
 
@@ -429,7 +429,7 @@ fn ring_vertex(v: RingVertex, index: u32) -> VertexOut {
 
 // A vertex at view direction p and height h_eye above the eye's altitude (h − h_eye), the rest
 // of its placement given: the position relative to the eye (the eye is at (0, 0, R + h_eye);
-// z = (h − h_eye) − (R + h)·(1 − cos θ̃), docs/design.md#numerics) and the haze integrated toward it. Both LOD
+// z = (h − h_eye) − (R + h)·(1 − cos θ̃), docs/design.md#numerics). Both LOD
 // methods' vertex stages end here.
 fn placed_vertex(p: vec3<f32>, one_minus_cos: f32, h_eye: f32, d: vec2<f32>, blend: f32, level: u32) -> VertexOut {
     let r = frame.radius_m + (eye_altitude() + h_eye);
@@ -450,17 +450,6 @@ fn placed_vertex(p: vec3<f32>, one_minus_cos: f32, h_eye: f32, d: vec2<f32>, ble
     if DETAIL && BUMP && bump.lambda_px.z > 0.0 {
         out.bump_sigma = bump_sigma(normalize(p));
     }
-    out.inscatter = vec3<f32>(0.0);
-    out.view_t = vec3<f32>(1.0);
-    out.sun_t = vec3<f32>(1.0);
-    if SKY {
-        let eye = vec3<f32>(0.0, 0.0, look.eye_radius_m);
-        let dist = length(rel);
-        let s = atmosphere_scatter(eye, rel / max(dist, 1e-6), dist, look.sun.xyz, 6u);
-        out.inscatter = s.inscatter;
-        out.view_t = s.transmittance;
-        out.sun_t = sun_transmittance(eye + rel, look.sun.xyz);
-    }
     return out;
 }
 
@@ -468,19 +457,15 @@ fn placed_vertex(p: vec3<f32>, one_minus_cos: f32, h_eye: f32, d: vec2<f32>, ble
 // again for every triangle its small vertex cache misses; here each vertex a frame's draws use
 // is placed once, on every core, by ring_vertex itself. The draws then read the result as
 // their vertex buffer (vs_placed). Rust twin: render::gpu_data::PlacedVertex.
-// 80 bytes: the clip position is the view matrix times `rel` (the draw multiplies, as
-// placed_vertex does); the haze's nine terms fill the last two and a half vectors.
+// 48 bytes: the clip position is the view matrix times `rel` (the draw multiplies, as
+// placed_vertex does); the haze is the fragment's (aerial_at), not the vertex's.
 struct PlacedVertex {
     // Position relative to the eye (m) and the level (as f32: exact).
     rel_level: vec4<f32>,
     // p̃ and the bump octaves' σ.
     p_sigma: vec4<f32>,
-    // Δφ, Δθ, the coarse blend; w: the haze's in-scattered red.
+    // Δφ, Δθ, the coarse blend; w unused.
     map_blend: vec4<f32>,
-    // The haze (SKY only): in-scattered green, blue; the segment's transmittance (rgb); the
-    // sunlight's (rgb).
-    haze_a: vec4<f32>,
-    haze_b: vec4<f32>,
 }
 
 // Written by cs_place only (the draws bind the same buffer as a vertex buffer).
@@ -498,11 +483,7 @@ fn cs_place(@builtin(global_invocation_id) id: vec3<u32>) {
     var q: PlacedVertex;
     q.rel_level = vec4<f32>(o.rel, f32(o.level));
     q.p_sigma = vec4<f32>(o.p_tilde, o.bump_sigma);
-    q.map_blend = vec4<f32>(o.map_pos, o.coarse_blend, o.inscatter.r);
-    if SKY {
-        q.haze_a = vec4<f32>(o.inscatter.gb, o.view_t.rg);
-        q.haze_b = vec4<f32>(o.view_t.b, o.sun_t);
-    }
+    q.map_blend = vec4<f32>(o.map_pos, o.coarse_blend, 0.0);
     placed_out[index] = q;
 }
 
@@ -511,11 +492,6 @@ struct PlacedIn {
     @location(0) rel_level: vec4<f32>,
     @location(1) p_sigma: vec4<f32>,
     @location(2) map_blend: vec4<f32>,
-}
-
-struct PlacedHaze {
-    @location(3) haze_a: vec4<f32>,
-    @location(4) haze_b: vec4<f32>,
 }
 
 fn unpack_placed(q: PlacedIn) -> VertexOut {
@@ -529,27 +505,14 @@ fn unpack_placed(q: PlacedIn) -> VertexOut {
     out.level = u32(q.rel_level.w);
     out.tag = out.level;
     out.bary = vec3<f32>(1.0);
-    out.inscatter = vec3<f32>(0.0);
-    out.view_t = vec3<f32>(1.0);
-    out.sun_t = vec3<f32>(1.0);
     out.plane_xy = vec2<f32>(3.0e38);
     return with_plane_coords(out);
 }
 
-// The clipmap's draws from the pre-pass, without the haze (look without sky)…
+// The clipmap's draws from the pre-pass.
 @vertex
 fn vs_placed(q: PlacedIn) -> VertexOut {
     return unpack_placed(q);
-}
-
-// …and with it.
-@vertex
-fn vs_placed_haze(q: PlacedIn, h: PlacedHaze) -> VertexOut {
-    var out = unpack_placed(q);
-    out.inscatter = vec3<f32>(q.map_blend.w, h.haze_a.xy);
-    out.view_t = vec3<f32>(h.haze_a.zw, h.haze_b.x);
-    out.sun_t = h.haze_b.yzw;
-    return out;
 }
 
 // The relief map at world unit vector w: bilinear between cell centres (as the fills read it).
@@ -788,6 +751,24 @@ fn larger_second(t: TwoLargest, k: u32, wk: f32) -> TwoLargest {
     return out;
 }
 
+// The haze between the eye and the point `rel` (view space, from the eye) at `altitude` (m)
+// seen through framebuffer position `frag` (pixels): the aerial volume read trilinearly at
+// the pixel's place in the frame and the slice coordinate of the point (aerial.wgsl): by its
+// distance, w = ln(dist/d0)/ln(d1/d0), or from above the atmosphere by its altitude a,
+// w = (a_hi − a)/(a_hi − a_lo).
+fn aerial_at(frag: vec2<f32>, rel: vec3<f32>, altitude: f32) -> Scatter {
+    let uv = 0.5 * frag * look.viewport.zw;
+    let dist = length(rel);
+    let by_distance = log(max(dist, look.aerial.x) / look.aerial.x) * look.aerial.y;
+    let by_altitude = 1.0 - (altitude - look.aerial.x) * look.aerial.y;
+    let w = clamp(select(by_distance, by_altitude, look.aerial.w > 0.5), 0.0, 1.0);
+    let z = (w * f32(AERIAL_SIZE_Z - 1u) + 0.5) / f32(AERIAL_SIZE_Z);
+    var out: Scatter;
+    out.inscatter = textureSampleLevel(aerial_inscatter, aerial_sampler, vec3<f32>(uv, z), 0.0).rgb;
+    out.transmittance = textureSampleLevel(aerial_transmittance, aerial_sampler, vec3<f32>(uv, z), 0.0).rgb;
+    return out;
+}
+
 // World → view: v_view = Wᵀ·v_world (the rows of W are look.world*).
 fn view_from_world(v: vec3<f32>) -> vec3<f32> {
     return v.x * look.world0.xyz + v.y * look.world1.xyz + v.z * look.world2.xyz;
@@ -875,11 +856,22 @@ fn shade(in_: VertexOut, rel_d: vec3<f32>) -> vec4<f32> {
     // that fades on the night side when the sky is on.
     var direct = vec3<f32>(look.light.z);
     var ambient = vec3<f32>(look.light.w);
-    if SKY {
-        direct = look.light.z * in.sun_t;
-        ambient = look.light.w * in.sun_t * clamp(dot(up, sun) * 3.0 + 0.3, 0.0, 1.0);
-    }
     let h = nh.w;
+    // The haze from the eye to this point (the aerial volume at the pixel and its distance or
+    // altitude) and the sunlight reaching the point (closed form): per pixel, and at the
+    // surface's height from the level texture (the water's where it is under water), not the
+    // triangle's, whose chords sag kilometres below it seen from space.
+    var haze: Scatter;
+    haze.inscatter = vec3<f32>(0.0);
+    haze.transmittance = vec3<f32>(1.0);
+    if SKY {
+        let altitude = max(h, look.water_level_m);
+        haze = aerial_at(in.clip.xy, in.rel, altitude);
+        let p = normalize(vec3<f32>(0.0, 0.0, look.eye_radius_m) + in.rel) * (look.shell.x + altitude);
+        let sun_t = sun_transmittance(p, sun);
+        direct = look.light.z * sun_t;
+        ambient = look.light.w * sun_t * clamp(dot(up, sun) * 3.0 + 0.3, 0.0, 1.0);
+    }
     let world_up = look_world(up);
     let pw = pick_planes(world_up);
     var colour: vec3<f32>;
@@ -936,7 +928,7 @@ fn shade(in_: VertexOut, rel_d: vec3<f32>) -> vec4<f32> {
         colour = hypsometric(h) * (ambient + direct * lambert);
     }
     if SKY {
-        colour = tone_map(colour * in.view_t + in.inscatter);
+        colour = tone_map(colour * haze.transmittance + haze.inscatter);
     }
     if LEVEL_OVERLAY {
         var tint = level_colour(in.tag);

@@ -52,6 +52,9 @@ struct LookUniforms {
     // The sky ring (look::SkyRing, sky.wgsl vs_sky_ring): tan of its inner and outer vertices'
     // angle from −z̃, their distance (m), unused.
     sky_ring: vec4<f32>,
+    // The aerial-perspective volume's slices (aerial.wgsl): the first one's distance d0 (m),
+    // 1/ln(d1/d0), ln(d1/d0), unused.
+    aerial: vec4<f32>,
 }
 
 // Unit view vector → world (ECEF) vector.

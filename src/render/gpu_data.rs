@@ -198,6 +198,9 @@ pub struct LookUniforms {
     /// the distance its vertices are placed at (beyond all terrain: their depth stays behind
     /// it), 0.
     pub sky_ring: [f32; 4],
+    /// The aerial-perspective volume's slices (`render::aerial::slice_range`): the first
+    /// slice's distance d0 (m), 1/ln(d1/d0), ln(d1/d0), 0.
+    pub aerial: [f32; 4],
 }
 
 /// `LevelUniforms` in `shaders/terrain.wgsl`: one per level, `MAX_LEVELS` of them.
@@ -758,7 +761,7 @@ gpu_struct!(LookUniforms as "LookUniforms" {
     view_from_clip, world0, world1, world2, tex_anchor, boundary_cell0, boundary_frac0,
     boundary_cell1, boundary_frac1, wave_anchor0, wave_anchor1,
     rayleigh, mie, shell, light, sky_zenith, sky_horizon, sun, eye_radius_m, water_level_m,
-    sun_cos, time_s, clip_from_view, viewport, sky_ring,
+    sun_cos, time_s, clip_from_view, viewport, sky_ring, aerial,
 });
 gpu_struct!(LevelUniforms as "LevelUniforms" {
     grid_x_viewer, grid_y_viewer, inv_dphi, inv_dtheta, dtheta_rad, detail_full, detail_end,
@@ -789,22 +792,18 @@ pub struct PlacedVertex {
     pub rel_level: [f32; 4],
     /// p̃, the bump octaves' σ.
     pub p_sigma: [f32; 4],
-    /// Δφ, Δθ, coarse blend, the haze's in-scattered red.
+    /// Δφ, Δθ, coarse blend, 0.
     pub map_blend: [f32; 4],
-    /// The haze's other eight terms (written only with the sky on).
-    pub haze_a: [f32; 4],
-    pub haze_b: [f32; 4],
 }
 
 gpu_struct!(PlacedVertex as "PlacedVertex" {
-    rel_level, p_sigma, map_blend, haze_a, haze_b,
+    rel_level, p_sigma, map_blend,
 });
 
-/// The vertex buffer layout of [`PlacedVertex`]: `PlacedIn` (locations 0–2) and `PlacedHaze`
-/// (3–4) in `shaders/terrain.wgsl`, one `vec4<f32>` per field in field order.
-pub const PLACED_VERTEX_ATTRIBUTES: [wgpu::VertexAttribute; 5] = wgpu::vertex_attr_array![
-    0 => Float32x4, 1 => Float32x4, 2 => Float32x4, 3 => Float32x4, 4 => Float32x4
-];
+/// The vertex buffer layout of [`PlacedVertex`]: `PlacedIn` (locations 0–2) in
+/// `shaders/terrain.wgsl`, one `vec4<f32>` per field in field order.
+pub const PLACED_VERTEX_ATTRIBUTES: [wgpu::VertexAttribute; 3] =
+    wgpu::vertex_attr_array![0 => Float32x4, 1 => Float32x4, 2 => Float32x4];
 
 gpu_struct!(RingVertex as "RingVertex" {
     p_tilde, one_minus_cos, theta_tilde_rad, ring_t, level, seam_side,
@@ -968,6 +967,7 @@ impl LookUniforms {
                 [w as f32, h as f32, (2.0 / w) as f32, (2.0 / h) as f32]
             },
             sky_ring: [0.0; 4],
+            aerial: [1.0, 1.0, 1.0, 0.0],
             time_s: time_s as f32,
         }
     }

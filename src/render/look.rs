@@ -1,10 +1,11 @@
 //! GPU side of the look (`crate::look`): the proto-texture array and the wave texture with
 //! their mip chains, their sampler and the look uniforms, with the sky pass (`render::sky`)
-//! that reads the same uniforms.
+//! and the aerial-perspective volume (`render::aerial`) that read the same uniforms.
 
 use crate::look::SkyRing;
 use crate::look::proto::{self, MIP_LEVELS, MipKind, TEXTURE_SIZE};
 
+use super::aerial::AerialPass;
 use super::gpu_data::LookUniforms;
 use super::sky::SkyPass;
 
@@ -16,6 +17,8 @@ pub struct LookResources {
     pub waves_view: wgpu::TextureView,
     pub sampler: wgpu::Sampler,
     sky: SkyPass,
+    /// The haze per pixel: the aerial-perspective volume the terrain pass reads.
+    pub aerial: AerialPass,
     /// The mip chain the textures hold (None: not uploaded yet; the first frame does it).
     uploaded: Option<MipKind>,
 }
@@ -69,6 +72,7 @@ impl LookResources {
             ..Default::default()
         });
         let sky = SkyPass::new(device, color_format, &uniforms);
+        let aerial = AerialPass::new(device, &uniforms);
         Self {
             uniforms,
             albedo,
@@ -77,6 +81,7 @@ impl LookResources {
             waves_view,
             sampler,
             sky,
+            aerial,
             uploaded: None,
         }
     }

@@ -4,6 +4,7 @@
 //! Precision boundary (docs/design.md#numerics): everything arriving here is f64; the only f32 values the GPU
 //! sees are relative to the viewer (view-space offsets, heights, small map-space offsets).
 
+pub mod aerial;
 pub mod context;
 pub mod contracts;
 pub mod dem_feed;

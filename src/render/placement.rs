@@ -5,9 +5,9 @@
 //! Why: a CPU rasteriser (llvmpipe, SwiftShader) shades vertices on one thread, and again for
 //! every index its small vertex cache misses; the ring mesh's rows are n + 2 vertices apart, so
 //! rows evict each other. The placement (map transform, 4–8 texel reads, a morph's two
-//! neighbours, the haze's integral) was 35–43 % of a `ground` frame at 960×540 on llvmpipe, less
+//! neighbours, then the haze's integral) was 35–43 % of a `ground` frame at 960×540 on llvmpipe, less
 //! at 1920×1080, where the fragments outweigh it. A compute pass places
-//! each vertex exactly once, on every core. A GPU pays one write and one read of 80 bytes per
+//! each vertex exactly once, on every core. A GPU pays one write and one read of 48 bytes per
 //! vertex instead (`TerrainRenderer::set_place_in_vertex_stage` draws the old way, and so does a
 //! device whose storage buffers cannot hold one vertex per mesh vertex).
 //!

@@ -24,6 +24,11 @@ pub const OVERLAY_LEVELS: u32 = 1;
 /// Bit of the wireframe overlay (barycentric edges).
 pub const OVERLAY_WIREFRAME: u32 = 2;
 
+/// The aerial-perspective volume (`render::aerial`): cells across the frame (x, y) and slices
+/// along each cell's ray (z); 10 × 10 pixels a cell at 1920×1080 (the haze is smooth across
+/// the image; at the limb the slices' distance carries it).
+pub const AERIAL_SIZE: [u32; 3] = [160, 90, 32];
+
 const TRIG: &str = include_str!("../../shaders/common/trig.wgsl");
 const MAP_TRANSFORM: &str = include_str!("../../shaders/common/map_transform.wgsl");
 const NOISE: &str = include_str!("../../shaders/common/noise.wgsl");
@@ -35,6 +40,8 @@ pub const FILL_ANALYTIC: &str = include_str!("../../shaders/fill_analytic.wgsl")
 pub const FILL_DEM: &str = include_str!("../../shaders/fill_dem.wgsl");
 pub const FILL_NORMALS: &str = include_str!("../../shaders/fill_normals.wgsl");
 pub const SKY: &str = include_str!("../../shaders/sky.wgsl");
+/// The aerial-perspective volume (`render::aerial`).
+pub const AERIAL: &str = include_str!("../../shaders/aerial.wgsl");
 /// Which terrain draws may leave the water's shading out (`render::water_cull`).
 pub const WATER_CULL: &str = include_str!("../../shaders/water_cull.wgsl");
 /// Appended to [`TERRAIN`] (one module): the planar LOD methods' vertex stages.
@@ -66,6 +73,9 @@ pub fn shared_constants() -> Vec<SharedConstant> {
         c("PROTO_TEXTURE_SIZE", crate::look::proto::TEXTURE_SIZE),
         c("PROTO_MIP_LEVELS", crate::look::proto::MIP_LEVELS),
         c("SKY_RING_SEGMENTS", crate::look::SKY_RING_SEGMENTS),
+        c("AERIAL_SIZE_X", AERIAL_SIZE[0]),
+        c("AERIAL_SIZE_Y", AERIAL_SIZE[1]),
+        c("AERIAL_SIZE_Z", AERIAL_SIZE[2]),
         c("DETAIL_AMPLITUDE_VECS", (MAX_OCTAVES / 4) as u32),
         c("TRANSFORM_DIRECT", TransformForm::Direct.shader_code()),
         c("TRANSFORM_STABLE", TransformForm::Stable.shader_code()),
@@ -97,7 +107,7 @@ pub fn assemble(pass: &str) -> String {
     } else {
         ""
     };
-    let look = if pass == TERRAIN || pass == SKY {
+    let look = if pass == TERRAIN || pass == SKY || pass == AERIAL {
         LOOK
     } else {
         ""

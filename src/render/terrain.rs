@@ -524,6 +524,9 @@ impl TerrainRenderer {
             encoder,
             self.look.sky && inside && !self.switches.sky_per_pixel,
         );
+        if self.look.sky {
+            self.look_resources.aerial.encode(encoder);
+        }
         let shading = self.choose_shading(&view, &clipmap, &levels, &bump);
         self.encode_water_cull(queue, encoder, (&view, &clipmap), &normals_written, &look);
         self.encode_placement(queue, encoder, &clipmap.draw.pieces);
@@ -769,6 +772,14 @@ impl TerrainRenderer {
         } else {
             None
         };
+        if self.look.sky {
+            look.aerial = super::aerial::slices(
+                view.radius_m + view.camera.altitude_m,
+                view.radius_m,
+                self.terrain.height_range_m(),
+                self.atmosphere.top_radius_m(),
+            );
+        }
         if let Some(ring) = sky_ring {
             look.sky_ring = [
                 ring.tan_inner as f32,

@@ -15,6 +15,7 @@ mod gpu_normals;
 mod gpu_transform;
 mod leave_out;
 mod measure;
+mod mesh_independence;
 mod placement;
 mod render_earth;
 mod render_scenes;

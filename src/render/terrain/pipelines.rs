@@ -57,7 +57,7 @@ pub(super) enum VertexInput {
 /// Where the clipmap's draws get their vertices.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(super) enum ClipmapVertices {
-    /// Placed by the pre-pass (`vs_placed`, `vs_placed_haze`).
+    /// Placed by the pre-pass (`vs_placed`).
     Placed,
     /// Placed by the vertex stage from the ring vertex buffer (`vs_main`).
     Ring,
@@ -239,7 +239,6 @@ impl PipelineParts {
         shading: Shading,
     ) -> ClipmapPipelines {
         let (vs, input) = match source {
-            ClipmapVertices::Placed if look.sky => ("vs_placed_haze", VertexInput::Placed),
             ClipmapVertices::Placed => ("vs_placed", VertexInput::Placed),
             ClipmapVertices::Ring => ("vs_main", VertexInput::Ring),
             ClipmapVertices::Wire => ("vs_main_wire", VertexInput::None),

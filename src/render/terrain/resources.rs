@@ -201,6 +201,16 @@ pub(super) fn bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout 
         wgpu::ShaderStages::VERTEX_FRAGMENT | wgpu::ShaderStages::COMPUTE,
         wgpu::ShaderStages::FRAGMENT,
     );
+    let volume_entry = |binding| wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::FRAGMENT,
+        ty: wgpu::BindingType::Texture {
+            sample_type: wgpu::TextureSampleType::Float { filterable: true },
+            view_dimension: wgpu::TextureViewDimension::D3,
+            multisampled: false,
+        },
+        count: None,
+    };
     device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
         label: Some("terrain layout"),
         entries: &[
@@ -237,7 +247,15 @@ pub(super) fn bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout 
                 count: None,
             },
             texture_entry(13, fragment, true),
+            volume_entry(14),
             storage_entry(15, wgpu::ShaderStages::VERTEX),
+            volume_entry(16),
+            wgpu::BindGroupLayoutEntry {
+                binding: 17,
+                visibility: fragment,
+                ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
+                count: None,
+            },
         ],
     })
 }
@@ -312,8 +330,20 @@ pub(super) fn bind_group(
                 resource: wgpu::BindingResource::TextureView(&textures.boundary_noise_view),
             },
             wgpu::BindGroupEntry {
+                binding: 14,
+                resource: wgpu::BindingResource::TextureView(&look.aerial.inscatter_view),
+            },
+            wgpu::BindGroupEntry {
                 binding: 15,
                 resource: buffers.indices.as_entire_binding(),
+            },
+            wgpu::BindGroupEntry {
+                binding: 16,
+                resource: wgpu::BindingResource::TextureView(&look.aerial.transmittance_view),
+            },
+            wgpu::BindGroupEntry {
+                binding: 17,
+                resource: wgpu::BindingResource::Sampler(&look.aerial.sampler),
             },
         ],
     })
