@@ -587,23 +587,23 @@ fn bump_gradient(u: vec3<f32>, sigma: f32, level: u32, blend: f32, footprint_dis
     return sigma * g / bump.sigma.w;
 }
 
-// The normal texture of `level` at map offset d from the viewer: the world-frame normal
-// (filtered: not quite unit length) and, in w, the height for the colour.
-fn level_normal(level: u32, d: vec2<f32>) -> vec4<f32> {
+// Where map offset d from the viewer lies in `level`'s textures (normals, boundary noise).
+fn level_uv(level: u32, d: vec2<f32>) -> vec2<f32> {
     let g = levels[level];
     let x = d.x * g.inv_dphi + g.grid_x_viewer;
     let y = d.y * g.inv_dtheta + g.grid_y_viewer;
     // Texel (i, j) holds grid point (i, j) mod S at its centre.
-    let uv = (vec2<f32>(x, y) + 0.5) / f32(frame.texture_size);
+    return (vec2<f32>(x, y) + 0.5) / f32(frame.texture_size);
+}
+
+// The normal texture of `level` at `uv` (level_uv): the world-frame normal (filtered: not
+// quite unit length) and, in w, the height for the colour.
+fn level_normal(level: u32, uv: vec2<f32>) -> vec4<f32> {
     return textureSampleLevel(normals, normal_sampler, uv, i32(level), 0.0);
 }
 
-// The boundary noise of `level` at map offset d (filtered as the normals are).
-fn level_boundary_noise(level: u32, d: vec2<f32>) -> vec4<f32> {
-    let g = levels[level];
-    let x = d.x * g.inv_dphi + g.grid_x_viewer;
-    let y = d.y * g.inv_dtheta + g.grid_y_viewer;
-    let uv = (vec2<f32>(x, y) + 0.5) / f32(frame.texture_size);
+// The boundary noise of `level` at `uv` (filtered as the normals are).
+fn level_boundary_noise(level: u32, uv: vec2<f32>) -> vec4<f32> {
     return textureSampleLevel(boundary_noise, normal_sampler, uv, i32(level), 0.0);
 }
 
@@ -816,18 +816,20 @@ fn shade(in_: VertexOut, rel_d: vec3<f32>) -> vec4<f32> {
 
     let level = in.level;
     let blend = clamp(in.coarse_blend, 0.0, 1.0);
-    var nh = level_normal(level, in.map_pos);
+    let uv = level_uv(level, in.map_pos);
+    var nh = level_normal(level, uv);
     // The boundary noise (the view-independent part of the look, filled with the level;
     // 0 in FAR frames, whose every pixel fades it out): read unconditionally otherwise, as
     // every texture read here (lavapipe, see Planes).
     var noise = vec4<f32>(0.5);
     if !FAR {
-        noise = level_boundary_noise(level, in.map_pos);
+        noise = level_boundary_noise(level, uv);
     }
     if BLEND && blend > 0.0 {
-        nh = mix(nh, level_normal(level - 1u, in.map_pos), blend);
+        let uv_coarse = level_uv(level - 1u, in.map_pos);
+        nh = mix(nh, level_normal(level - 1u, uv_coarse), blend);
         if !FAR {
-            noise = mix(noise, level_boundary_noise(level - 1u, in.map_pos), blend);
+            noise = mix(noise, level_boundary_noise(level - 1u, uv_coarse), blend);
         }
     }
     let nw = nh.xyz;

@@ -4,6 +4,7 @@
 //! interpolating what its triangle's vertices integrated (the image no longer depends on the
 //! mesh: from space, per-vertex haze drew rings on the disk).
 
+use super::gpu_data::LookUniforms;
 use super::shader::{self, AERIAL_SIZE};
 
 /// The volumes' format: in-scattered light (rgb) and transmittance (rgb), one texture each.
@@ -43,6 +44,32 @@ pub struct AerialPass {
     pub transmittance_view: wgpu::TextureView,
     /// Trilinear, clamped at every edge (a pixel beyond the last slice's distance keeps it).
     pub sampler: wgpu::Sampler,
+    /// What the volume was last filled for ([`VolumeKey`]): a still camera under a still sun
+    /// fills it once.
+    filled_for: Option<VolumeKey>,
+}
+
+/// Everything of the look uniforms the volume depends on: the rays (clip → view), the eye's
+/// radius, the sun, the atmosphere and the slices (not the time, which only moves the waves).
+#[derive(Clone, Copy, PartialEq)]
+struct VolumeKey {
+    view_from_clip: [[f32; 4]; 4],
+    sun: [f32; 4],
+    eye_radius_m: f32,
+    media: [[f32; 4]; 4],
+    aerial: [f32; 4],
+}
+
+impl VolumeKey {
+    fn of(look: &LookUniforms) -> Self {
+        Self {
+            view_from_clip: look.view_from_clip,
+            sun: look.sun,
+            eye_radius_m: look.eye_radius_m,
+            media: [look.rayleigh, look.mie, look.shell, look.light],
+            aerial: look.aerial,
+        }
+    }
 }
 
 impl AerialPass {
@@ -146,12 +173,18 @@ impl AerialPass {
             inscatter_view,
             transmittance_view,
             sampler,
+            filled_for: None,
         }
     }
 
-    /// Records this frame's volume (after the look uniforms are written, before the terrain
-    /// pass reads it).
-    pub fn encode(&self, encoder: &mut wgpu::CommandEncoder) {
+    /// Records this frame's volume for the look uniforms `look` (after they are written,
+    /// before the terrain pass reads it), unless it already holds it.
+    pub fn encode(&mut self, encoder: &mut wgpu::CommandEncoder, look: &LookUniforms) {
+        let key = VolumeKey::of(look);
+        if self.filled_for == Some(key) {
+            return;
+        }
+        self.filled_for = Some(key);
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some("aerial volume"),
             timestamp_writes: None,

@@ -525,7 +525,7 @@ impl TerrainRenderer {
             self.look.sky && inside && !self.switches.sky_per_pixel,
         );
         if self.look.sky {
-            self.look_resources.aerial.encode(encoder);
+            self.look_resources.aerial.encode(encoder, &look);
         }
         let shading = self.choose_shading(&view, &clipmap, &levels, &bump);
         self.encode_water_cull(queue, encoder, (&view, &clipmap), &normals_written, &look);
