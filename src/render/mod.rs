@@ -86,3 +86,17 @@ pub fn compute_storage_entry(binding: u32, read_only: bool) -> wgpu::BindGroupLa
         count: None,
     }
 }
+
+/// A compute pass's uniform buffer binding (no dynamic offset).
+pub fn compute_uniform_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Uniform,
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    }
+}
