@@ -48,6 +48,12 @@ struct NormalParams {
     boundary_frac0: vec4<f32>,
     boundary_cell1: vec4<i32>,
     boundary_frac1: vec4<f32>,
+    // The imagery's pixel coordinates of the anchor (x, y; edges at integers, y unfolded)
+    // and its pixels per grid step (z, w); its width, height, mip level for this texel and
+    // 1 when there is imagery; pixel rows of 90° N and 90° S and the period in columns.
+    imagery_xy: vec4<f32>,
+    imagery_size: vec4<f32>,
+    imagery_fold: vec4<f32>,
 }
 
 @group(0) @binding(0) var<uniform> params: NormalParams;
@@ -55,6 +61,9 @@ struct NormalParams {
 @group(0) @binding(2) var partials: texture_2d_array<f32>;
 @group(0) @binding(3) var out_normals: texture_storage_2d_array<rgba16float, write>;
 @group(0) @binding(4) var out_materials: texture_storage_2d_array<rgba8unorm, write>;
+@group(0) @binding(5) var out_imagery: texture_storage_2d_array<rgba8unorm, write>;
+@group(0) @binding(6) var imagery: texture_2d<f32>;
+@group(0) @binding(7) var imagery_sampler: sampler;
 
 // Height of the grid point (i, j) from the job's first one: (level heights, partial octaves)
 // apart, so that differences of nearby points lose nothing to the f32 sum of the two (at a
@@ -98,6 +107,39 @@ fn texel_boundary_noise(rel: vec3<f32>, footprint_m: f32) -> vec4<f32> {
     let na = boundary_octave(params.boundary_cell0, params.boundary_frac0, rel, footprint_m);
     let nb = boundary_octave(params.boundary_cell1, params.boundary_frac1, rel, footprint_m);
     return vec4<f32>(0.5 + 0.5 * na, 0.5 + 0.5 * nb, 0.0, 0.0);
+}
+
+// Linear light → the sRGB encoding (IEC 61966-2-1): the level layer is 8 bits a channel.
+fn linear_to_srgb(c: vec3<f32>) -> vec3<f32> {
+    let v = clamp(c, vec3<f32>(0.0), vec3<f32>(1.0));
+    return select(1.055 * pow(v, vec3<f32>(1.0 / 2.4)) - 0.055, 12.92 * v, v <= vec3<f32>(0.0031308));
+}
+
+// The draped image at grid point (i, j) of the job, band-limited to the texel (the mip
+// level whose pixels are the texel's size: both are latitude/longitude grids, so that holds
+// at every latitude), sRGB-encoded, alpha its coverage (0 outside the image). Rows past a
+// pole are the point across it, half a turn on. Rust twin: render::imagery::texel_imagery.
+fn texel_imagery(i: i32, j: i32) -> vec4<f32> {
+    if params.imagery_size.w == 0.0 {
+        return vec4<f32>(0.0);
+    }
+    var x = params.imagery_xy.x + f32(i + i32(params.offset_x)) * params.imagery_xy.z;
+    var y = params.imagery_xy.y + f32(j + i32(params.offset_y)) * params.imagery_xy.w;
+    let north = params.imagery_fold.x;
+    let south = params.imagery_fold.y;
+    let period = params.imagery_fold.z;
+    if y < north {
+        y = 2.0 * north - y;
+        x += 0.5 * period;
+    } else if y > south {
+        y = 2.0 * south - y;
+        x += 0.5 * period;
+    }
+    x -= floor(x / period) * period;
+    let size = params.imagery_size.xy;
+    let c = textureSampleLevel(imagery, imagery_sampler, vec2<f32>(x, y) / size, params.imagery_size.z);
+    let inside = x <= size.x && y >= 0.0 && y <= size.y;
+    return select(vec4<f32>(0.0), vec4<f32>(linear_to_srgb(c.rgb), c.a), inside);
 }
 
 @compute @workgroup_size(WORKGROUP_SIZE, WORKGROUP_SIZE, 1)
@@ -156,4 +198,5 @@ fn cs_main(@builtin(global_invocation_id) id: vec3<u32>) {
     let rel = (params.radius_m + params.ref_m) * d_up + (h0.x + h0.y) * up;
     let footprint_m = params.radius_m * max(dtheta, abs(st) * dphi);
     textureStore(out_materials, slot, params.layer, texel_boundary_noise(rel, footprint_m));
+    textureStore(out_imagery, slot, params.layer, texel_imagery(i, j));
 }

@@ -136,6 +136,9 @@ override TRANSFORM: u32 = TRANSFORM_STABLE;
 // shading), the atmosphere's haze. Off: the plain tint, one Lambert light.
 override TEXTURES: bool = true;
 override WATER: bool = true;
+// Imagery draped (the terrain has it): a pixel's colour is the imagery's, the surface types
+// only the texture inside an imagery pixel.
+override IMAGERY: bool = false;
 // The water's shading (WATER on): off in the pipeline that draws what the water cull proved
 // dry (render::water_cull), the geometry rule max(h, level) kept.
 override WET: bool = true;
@@ -178,6 +181,9 @@ override WIRE_OVERLAY: bool = false;
 @group(0) @binding(12) var look_sampler: sampler;
 // The levels' boundary noise (fill_normals.wgsl): ½ + ½·na, ½ + ½·nb (its two octaves).
 @group(0) @binding(13) var boundary_noise: texture_2d_array<f32>;
+// The draped imagery per texel (fill_normals.wgsl texel_imagery): sRGB-encoded rgb, alpha its
+// coverage.
+@group(0) @binding(18) var level_imagery: texture_2d_array<f32>;
 // The aerial-perspective volume (aerial.wgsl): in-scattered light and transmittance from the
 // eye to each slice's distance, per cell of the frame.
 @group(0) @binding(14) var aerial_inscatter: texture_3d<f32>;
@@ -607,6 +613,11 @@ fn level_boundary_noise(level: u32, uv: vec2<f32>) -> vec4<f32> {
     return textureSampleLevel(boundary_noise, normal_sampler, uv, i32(level), 0.0);
 }
 
+// The imagery of `level` at `uv` (sRGB-encoded rgb, coverage in a; filtered).
+fn level_imagery_at(level: u32, uv: vec2<f32>) -> vec4<f32> {
+    return textureSampleLevel(level_imagery, normal_sampler, uv, i32(level), 0.0);
+}
+
 // Hypsometric tint: bathymetry blues, lowland greens, upland browns, rock, snow.
 fn hypsometric(h: f32) -> vec3<f32> {
     if h < 0.0 {
@@ -825,13 +836,24 @@ fn shade(in_: VertexOut, rel_d: vec3<f32>) -> vec4<f32> {
     if !FAR {
         noise = level_boundary_noise(level, uv);
     }
+    var img = vec4<f32>(0.0);
+    if IMAGERY {
+        img = level_imagery_at(level, uv);
+    }
     if BLEND && blend > 0.0 {
         let uv_coarse = level_uv(level - 1u, in.map_pos);
         nh = mix(nh, level_normal(level - 1u, uv_coarse), blend);
         if !FAR {
             noise = mix(noise, level_boundary_noise(level - 1u, uv_coarse), blend);
         }
+        if IMAGERY {
+            img = mix(img, level_imagery_at(level - 1u, uv_coarse), blend);
+        }
     }
+    // Texels outside the image hold 0 in every channel, so the filtered colour over its
+    // coverage is the covered texels' mean.
+    let cover = img.a;
+    let img_c = srgb_to_linear(img.rgb / max(img.a, 1e-4));
     let nw = nh.xyz;
     var n = normalize(view_from_world(nw));
     let n_geometry = n;
@@ -906,7 +928,7 @@ fn shade(in_: VertexOut, rel_d: vec3<f32>) -> vec4<f32> {
             let ice_c = sample_albedo(4u, uvw, uvw_dx, uvw_dy, pw) * (ambient + direct * max(dot(up, sun), 0.0));
             colour = mix(colour, ice_c, ice);
         }
-    } else if TEXTURES && h >= 0.0 {
+    } else if TEXTURES && (h >= 0.0 || cover > 0.0) {
         // Proto-texturing (§4.2) by height, slope and latitude, boundaries perturbed by the
         // noise the normal pass wrote per texel.
         let slope_v = 1.0 - clamp(dot(n_geometry, up), 0.0, 1.0);
@@ -915,17 +937,40 @@ fn shade(in_: VertexOut, rel_d: vec3<f32>) -> vec4<f32> {
         // then the two largest: a third type rarely shows (lavapipe also needs the layer to
         // be a computed value, not a constant per call).
         let keep = (1.0 - wts.w) * (1.0 - wts.z);
-        let top = two_largest(array<f32, 5>(
+        var types = array<f32, 5>(
             keep * (1.0 - wts.y) * (1.0 - wts.x),
             keep * (1.0 - wts.y) * wts.x,
             keep * wts.y,
             (1.0 - wts.w) * wts.z,
             wts.w,
-        ));
+        );
+        if IMAGERY && cover > 0.0 {
+            // Under imagery the types are those whose prototypes are nearest its colour (a
+            // desert pixel makes sand, a dark green one forest, a white one snow).
+            let wi = imagery_weights(img_c, q);
+            let total = max(wi[0] + wi[1] + wi[2] + wi[3] + wi[4], 1e-12);
+            for (var k = 0u; k < 5u; k++) {
+                types[k] = mix(types[k], wi[k] / total, cover);
+            }
+        }
+        let top = two_largest(types);
         let a1 = sample_albedo(top.first, uvw, uvw_dx, uvw_dy, pw);
         let a2 = sample_albedo(top.second, uvw, uvw_dx, uvw_dy, pw);
-        let albedo_c = mix(a1, a2, top.w2 / max(top.w1 + top.w2, 1e-6));
+        let t = top.w2 / max(top.w1 + top.w2, 1e-6);
+        var albedo_c = mix(a1, a2, t);
+        if IMAGERY {
+            // The imagery's colour, textured inside its pixel by the types' proto-textures
+            // over their means: the mean stays the imagery's at every distance (far away the
+            // textures' mips are their means and the ratio is 1).
+            let m1 = look.type_means[top.first].rgb;
+            let m2 = look.type_means[top.second].rgb;
+            let ratio = mix(a1 / max(m1, vec3<f32>(1e-3)), a2 / max(m2, vec3<f32>(1e-3)), t);
+            albedo_c = mix(albedo_c, img_c * ratio, cover);
+        }
         colour = albedo_c * (ambient + direct * lambert);
+    } else if IMAGERY && cover > 0.0 {
+        // --textures off: the imagery's own colour, lit.
+        colour = mix(hypsometric(h), img_c, cover) * (ambient + direct * lambert);
     } else {
         colour = hypsometric(h) * (ambient + direct * lambert);
     }

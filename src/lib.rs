@@ -8,6 +8,7 @@
 //! | [`geo`] | f64 sphere math, camera, the map transform (3 forms) and visibility bounds |
 //! | [`progress`] | progress of long work on stderr: a bar on a terminal, plain lines in logs |
 //! | [`dem`] | elevation rasters (EHdr/BIL, netCDF-3) and the tiled pyramid file |
+//! | [`imagery`] | true-colour imagery draped on the terrain: the embedded Blue Marble, GeoTIFF and plate-carrée files, area-averaged mipmaps |
 //! | [`clipmap`] | ring mesh, level texture windows, level and sector selection |
 //! | [`planar`] | close-up LOD methods in a local tangent frame: geomipmapping with geomorphing, the error-bounded projected grid, geometry-image warping |
 //! | [`stream`] | tile streaming: sources (mmap, fault injection), tokio streamer, LRU cache |
@@ -26,6 +27,7 @@
 pub mod clipmap;
 pub mod dem;
 pub mod geo;
+pub mod imagery;
 pub mod instruments;
 pub mod look;
 pub mod measure;

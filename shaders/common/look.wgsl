@@ -55,6 +55,10 @@ struct LookUniforms {
     // The aerial-perspective volume's slices (aerial.wgsl): the first one's distance d0 (m),
     // 1/ln(d1/d0), ln(d1/d0), unused.
     aerial: vec4<f32>,
+    // Each surface type's proto-texture mean (linear rgb; its coarsest mip), and its imagery
+    // prototype's features (imagery_features), in the albedo array's order.
+    type_means: array<vec4<f32>, 5>,
+    type_features: array<vec4<f32>, 5>,
 }
 
 // Unit view vector → world (ECEF) vector.
@@ -183,4 +187,30 @@ fn material_weights(h: f32, s: f32, sin_lat: f32, q: f32, patches: f32) -> vec4<
     let rock = smoothstep(0.16, 0.26, sp);
     let snow = smoothstep(snow_line - 150.0, snow_line + 150.0, hp) * (1.0 - smoothstep(0.32, 0.45, sp));
     return vec4<f32>(forest, sand, rock, snow);
+}
+
+// Where a colour (linear rgb) lies among the types' imagery prototypes: (½·log₂ luminance,
+// log₂ r/g, log₂ b/g). Rust twin: look::proto::imagery_features.
+fn imagery_features(c: vec3<f32>) -> vec3<f32> {
+    let v = max(c, vec3<f32>(1e-4));
+    let l = dot(v, vec3<f32>(0.2126, 0.7152, 0.0722));
+    return vec3<f32>(0.5 * log2(l), log2(v.r / v.g), log2(v.b / v.g));
+}
+
+// The surface types' weights under imagery of colour c (linear rgb; not normalised), the
+// luminance feature moved by the boundary noise q: the nearest prototypes win
+// (2^(−8·d²)). Rust twin: look::proto::imagery_weights.
+fn imagery_weights(c: vec3<f32>, q: f32) -> array<f32, 5> {
+    let f = imagery_features(c) + vec3<f32>(0.25 * q, 0.0, 0.0);
+    var w: array<f32, 5>;
+    for (var k = 0u; k < 5u; k++) {
+        let d = f - look.type_features[k].xyz;
+        w[k] = exp2(-8.0 * dot(d, d));
+    }
+    return w;
+}
+
+// The sRGB encoding (IEC 61966-2-1) → linear light.
+fn srgb_to_linear(c: vec3<f32>) -> vec3<f32> {
+    return select(pow((c + 0.055) / 1.055, vec3<f32>(2.4)), c / 12.92, c <= vec3<f32>(0.04045));
 }

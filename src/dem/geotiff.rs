@@ -99,6 +99,50 @@ struct Layout {
     counts: Vec<u64>,
 }
 
+/// What a GeoTIFF's first image says about itself, for readers of other kinds of raster
+/// (imagery): its size, samples per pixel, bits per sample, compression's name and where its
+/// pixels lie (the same geographic checks as the elevation reader's).
+#[derive(Clone, Debug)]
+pub struct TiffHeader {
+    pub width: usize,
+    pub height: usize,
+    pub samples_per_pixel: u64,
+    pub bits_per_sample: u64,
+    pub compression: &'static str,
+    pub georef: georef::Georeference,
+}
+
+/// Reads the header and georeferencing of the first image of the GeoTIFF in `bytes` (`path`
+/// names it in messages).
+pub fn read_header(bytes: &[u8], path: &Path) -> Result<TiffHeader, DemError> {
+    let ifd = Ifd::parse(bytes, path)?;
+    let width = ifd.scalar(bytes, 256, None, path)? as usize;
+    let height = ifd.scalar(bytes, 257, None, path)? as usize;
+    if width == 0 || height == 0 || width > u32::MAX as usize || height > u32::MAX as usize {
+        return Err(header_err(
+            path,
+            "ImageWidth",
+            format!("{width} × {height} pixels; expected at least one pixel"),
+        ));
+    }
+    let samples_per_pixel = ifd.scalar(bytes, 277, Some(1), path)?;
+    // One value per sample (RGB: 8, 8, 8); the largest is reported.
+    let bits_per_sample = ifd
+        .unsigned(bytes, 258, path)?
+        .and_then(|v| v.into_iter().max())
+        .unwrap_or(1);
+    let compression = compression_name(ifd.scalar(bytes, 259, Some(1), path)? as u16);
+    let georef = georef::georeference(bytes, &ifd, width, height, path)?;
+    Ok(TiffHeader {
+        width,
+        height,
+        samples_per_pixel,
+        bits_per_sample,
+        compression,
+        georef,
+    })
+}
+
 /// The mapped file, shared between the reader and the decoder's cursor.
 #[derive(Clone)]
 struct Shared(Arc<MappedFile>);

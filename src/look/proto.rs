@@ -108,6 +108,51 @@ pub fn dominant(weights: [f32; 4]) -> Material {
     m
 }
 
+/// Each surface type as the imagery shows it from orbit (linear RGB; NASA's Blue Marble at 4′
+/// averaged over 7 × 7 pixels: grass the Great Plains and European farmland, forest the Amazon,
+/// Congo and taiga, sand the Sahara, rock the Tibetan plateau and the Atacama, snow Greenland).
+/// Under imagery a pixel takes the types of the prototypes nearest its colour
+/// ([`imagery_weights`]); the proto-textures then only add the texture inside an imagery pixel.
+pub const IMAGERY_PROTOTYPES: [[f32; 3]; 5] = [
+    [0.08, 0.085, 0.025],
+    [0.014, 0.024, 0.005],
+    [0.58, 0.39, 0.20],
+    [0.28, 0.20, 0.11],
+    [0.95, 0.96, 0.97],
+];
+
+/// How sharply the nearest prototype wins: weight 2^(−k·d²).
+pub const IMAGERY_SHARPNESS: f32 = 8.0;
+
+/// Where a colour (linear RGB) lies among the prototypes: (½·log₂ luminance, log₂ r/g,
+/// log₂ b/g): brightness and hue apart, so a dark forest and a bright desert are far apart and
+/// a shaded dune stays a dune.
+pub fn imagery_features(c: [f32; 3]) -> [f32; 3] {
+    let v = c.map(|x| x.max(1e-4));
+    let l = 0.2126 * v[0] + 0.7152 * v[1] + 0.0722 * v[2];
+    [0.5 * l.log2(), (v[0] / v[1]).log2(), (v[2] / v[1]).log2()]
+}
+
+/// The surface types' weights (in [`Material::ALL`]'s order, not normalised) under imagery of
+/// colour `c` (linear RGB), the luminance feature moved by the boundary noise q ∈ [−1, 1] (so
+/// a type's edge is not a contour of the bilinear imagery). The shader's `imagery_weights`.
+pub fn imagery_weights(c: [f32; 3], q: f32) -> [f32; 5] {
+    let f = imagery_features(c);
+    let f = [f[0] + 0.25 * q, f[1], f[2]];
+    IMAGERY_PROTOTYPES.map(|p| {
+        let g = imagery_features(p);
+        let d2: f32 = (0..3).map(|i| (f[i] - g[i]).powi(2)).sum();
+        (-IMAGERY_SHARPNESS * d2).exp2()
+    })
+}
+
+/// The type of largest weight under imagery of colour `c`.
+pub fn imagery_type(c: [f32; 3]) -> Material {
+    let w = imagery_weights(c, 0.0);
+    let k = (0..5).fold(0, |b, k| if w[k] > w[b] { k } else { b });
+    Material::ALL[k]
+}
+
 /// WGSL's smoothstep.
 pub fn smoothstep(e0: f32, e1: f32, x: f32) -> f32 {
     let t = ((x - e0) / (e1 - e0)).clamp(0.0, 1.0);
@@ -308,6 +353,53 @@ pub fn channel_variance(level: &[[u8; 4]], channel: usize) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Colours the Blue Marble shows (7 × 7-pixel means, linear RGB, measured off
+    /// `assets/imagery-bmng-4min.jpg` at places not used for the prototypes) make the type a
+    /// person expects there.
+    #[test]
+    fn imagery_colours_make_the_types_one_expects() {
+        let cases = [
+            (
+                "Sahara at 27° N 27° E",
+                [0.594, 0.413, 0.201],
+                Material::Sand,
+            ),
+            (
+                "Arabia at 22° N 48° E",
+                [0.543, 0.342, 0.177],
+                Material::Sand,
+            ),
+            (
+                "the Congo at 0° 20° E",
+                [0.010, 0.020, 0.004],
+                Material::Forest,
+            ),
+            (
+                "the taiga at 60° N 100° E",
+                [0.013, 0.022, 0.004],
+                Material::Forest,
+            ),
+            (
+                "Antarctica at 80° S 0°",
+                [0.943, 0.968, 0.978],
+                Material::Snow,
+            ),
+            (
+                "the Atacama at 24° S 69° W",
+                [0.274, 0.177, 0.100],
+                Material::Rock,
+            ),
+        ];
+        for (place, c, expected) in cases {
+            assert_eq!(
+                imagery_type(c),
+                expected,
+                "{place}: {:?}",
+                imagery_weights(c, 0.0)
+            );
+        }
+    }
 
     #[test]
     fn surface_types_follow_height_slope_and_latitude() {

@@ -20,6 +20,7 @@ use crate::planar::geomip::Patch;
 use crate::procedural::{Detail, LevelOctaves, MAX_OCTAVES, OctaveAnchorF32};
 use crate::terrain::analytic::{AnalyticPlanet, SCALES, WaveAt};
 
+use super::imagery::ImageryGeometry;
 use super::shader::{self, MAX_LEVELS};
 
 // ---------------------------------------------------------------------------------------------
@@ -77,6 +78,13 @@ wgsl_types! {
     [i32; 4] => "vec4<i32>",
     [u32; 4] => "vec4<u32>",
     [[f32; 4]; 4] => "mat4x4<f32>",
+}
+
+/// The surface types' tables (`LookUniforms::type_means`, `type_features`).
+impl WgslType for [[f32; 4]; 5] {
+    fn wgsl_type() -> String {
+        "array<vec4<f32>, 5>".to_string()
+    }
 }
 
 /// The detail's amplitude table.
@@ -201,6 +209,11 @@ pub struct LookUniforms {
     /// The aerial-perspective volume's slices (`render::aerial::slice_range`): the first
     /// slice's distance d0 (m), 1/ln(d1/d0), ln(d1/d0), 0.
     pub aerial: [f32; 4],
+    /// Each surface type's proto-texture mean (linear RGB, as sampled at its coarsest mip):
+    /// under imagery a texel's colour is the imagery's times the texture over this.
+    pub type_means: [[f32; 4]; 5],
+    /// Each type's imagery prototype's features (`look::proto::imagery_features`).
+    pub type_features: [[f32; 4]; 5],
 }
 
 /// `LevelUniforms` in `shaders/terrain.wgsl`: one per level, `MAX_LEVELS` of them.
@@ -340,9 +353,45 @@ pub struct NormalParams {
     pub boundary_frac0: [f32; 4],
     pub boundary_cell1: [i32; 4],
     pub boundary_frac1: [f32; 4],
+    /// The imagery's pixel coordinates of the anchor (x unfolded, modulo the period; y
+    /// unfolded) and its pixels per grid step (`render::imagery::ImageryGeometry`).
+    pub imagery_xy: [f32; 4],
+    /// The image's width and height (pixels), its mip level for this level's texel, and 1
+    /// when there is imagery (0: the pass writes none).
+    pub imagery_size: [f32; 4],
+    /// Pixel rows of 90° N and 90° S, the period in columns (360°), unused.
+    pub imagery_fold: [f32; 4],
 }
 
 impl NormalParams {
+    /// The same dispatch sampling `imagery` (its anchor `anchor` of `grid`).
+    pub fn with_imagery(
+        self,
+        imagery: Option<&ImageryGeometry>,
+        grid: &LevelGrid,
+        anchor: [i64; 2],
+    ) -> Self {
+        let Some(g) = imagery else {
+            return self;
+        };
+        let (dx, dy) = g.steps(grid.dphi_rad, grid.dtheta_rad);
+        let period = 360.0 / g.dlon_deg;
+        let x0 = (anchor[0] as f64 * dx - g.west_deg / g.dlon_deg).rem_euclid(period);
+        let y0 = anchor[1] as f64 * dy + (g.north_deg - 90.0) / g.dlat_deg;
+        let (north, south) = g.pole_rows();
+        Self {
+            imagery_xy: [x0 as f32, y0 as f32, dx as f32, dy as f32],
+            imagery_size: [
+                g.width as f32,
+                g.height as f32,
+                ImageryGeometry::lod(dx, dy) as f32,
+                1.0,
+            ],
+            imagery_fold: [north as f32, south as f32, period as f32, 0.0],
+            ..self
+        }
+    }
+
     /// The normals of `rect` of `grid` (rows past a pole unfolded), whose level holds
     /// `partial_count` partial octaves; `rect` lies in one anchor block, whose corner
     /// `anchor` the angles are taken from (the same f32 sums whichever dispatch it is).
@@ -400,6 +449,9 @@ impl NormalParams {
             boundary_frac0: boundary[0].1,
             boundary_cell1: boundary[1].0,
             boundary_frac1: boundary[1].1,
+            imagery_xy: [0.0; 4],
+            imagery_size: [0.0; 4],
+            imagery_fold: [0.0; 4],
         }
     }
 }
@@ -761,7 +813,7 @@ gpu_struct!(LookUniforms as "LookUniforms" {
     view_from_clip, world0, world1, world2, tex_anchor, boundary_cell0, boundary_frac0,
     boundary_cell1, boundary_frac1, wave_anchor0, wave_anchor1,
     rayleigh, mie, shell, light, sky_zenith, sky_horizon, sun, eye_radius_m, water_level_m,
-    sun_cos, time_s, clip_from_view, viewport, sky_ring, aerial,
+    sun_cos, time_s, clip_from_view, viewport, sky_ring, aerial, type_means, type_features,
 });
 gpu_struct!(LevelUniforms as "LevelUniforms" {
     grid_x_viewer, grid_y_viewer, inv_dphi, inv_dtheta, dtheta_rad, detail_full, detail_end,
@@ -770,7 +822,7 @@ gpu_struct!(LevelUniforms as "LevelUniforms" {
 gpu_struct!(NormalParams as "NormalParams" {
     slot0, extent, layer, size, partial_count, quarter, angles, trig, radius_m, pole_north,
     pole_south, offset_x, offset_y, ref_m, boundary_cell0, boundary_frac0,
-    boundary_cell1, boundary_frac1,
+    boundary_cell1, boundary_frac1, imagery_xy, imagery_size, imagery_fold,
 });
 gpu_struct!(WaterCullParams as "WaterCullParams" {
     dry_from_m, block, blocks_per_row, job_count, draw_count,
@@ -968,6 +1020,22 @@ impl LookUniforms {
             },
             sky_ring: [0.0; 4],
             aerial: [1.0, 1.0, 1.0, 0.0],
+            type_means: {
+                let t = crate::look::proto::textures(look.mips);
+                std::array::from_fn(|k| {
+                    let top = t.albedo[k].levels.last().unwrap()[0];
+                    [
+                        top[0] as f32 / 255.0,
+                        top[1] as f32 / 255.0,
+                        top[2] as f32 / 255.0,
+                        0.0,
+                    ]
+                })
+            },
+            type_features: crate::look::proto::IMAGERY_PROTOTYPES.map(|p| {
+                let f = crate::look::proto::imagery_features(p);
+                [f[0], f[1], f[2], 0.0]
+            }),
             time_s: time_s as f32,
         }
     }

@@ -14,6 +14,7 @@ pub mod fill_analytic;
 pub mod fill_dem;
 pub mod formats;
 pub mod gpu_data;
+pub mod imagery;
 pub mod look;
 pub mod normals;
 pub mod offscreen;

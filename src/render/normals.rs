@@ -14,6 +14,7 @@ use crate::clipmap::levels::{GridRect, LevelGrid};
 use super::dispatch::DispatchParams;
 use super::fill_analytic::FillJob;
 use super::gpu_data::NormalParams;
+use super::imagery::{ImageryTexture, LEVEL_IMAGERY_FORMAT};
 use super::shader;
 
 /// Format of the normal textures: a unit world vector (xyz), the texel's height (w).
@@ -53,19 +54,23 @@ pub struct NormalPass {
     pipeline: wgpu::ComputePipeline,
     params: DispatchParams,
     bind_group: wgpu::BindGroup,
+    /// The draped image the pass samples into the level imagery (a stand-in without one).
+    imagery: ImageryTexture,
 }
 
 impl NormalPass {
-    /// A pass reading `heights` and `partials` and writing `normals` (all level arrays), with
-    /// room for `capacity` dispatches per frame.
+    /// A pass reading `heights` and `partials` and writing `normals`, `boundary_noise` and
+    /// `level_imagery` (all level arrays; the last sampled from `imagery`), with room for
+    /// `capacity` dispatches per frame.
     pub fn new(
         device: &wgpu::Device,
         capacity: u32,
         heights: &wgpu::TextureView,
         partials: &wgpu::TextureView,
-        normals: &wgpu::TextureView,
-        boundary_noise: &wgpu::TextureView,
+        out: [&wgpu::TextureView; 3],
+        imagery: ImageryTexture,
     ) -> Self {
+        let [normals, boundary_noise, level_imagery] = out;
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("fill_normals.wgsl"),
             source: wgpu::ShaderSource::Wgsl(shader::assemble(shader::FILL_NORMALS).into()),
@@ -99,6 +104,23 @@ impl NormalPass {
                 texture(2),
                 storage(3, NORMAL_FORMAT),
                 storage(4, BOUNDARY_NOISE_FORMAT),
+                storage(5, LEVEL_IMAGERY_FORMAT),
+                wgpu::BindGroupLayoutEntry {
+                    binding: 6,
+                    visibility: wgpu::ShaderStages::COMPUTE,
+                    ty: wgpu::BindingType::Texture {
+                        sample_type: wgpu::TextureSampleType::Float { filterable: true },
+                        view_dimension: wgpu::TextureViewDimension::D2,
+                        multisampled: false,
+                    },
+                    count: None,
+                },
+                wgpu::BindGroupLayoutEntry {
+                    binding: 7,
+                    visibility: wgpu::ShaderStages::COMPUTE,
+                    ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
+                    count: None,
+                },
             ],
         });
         let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
@@ -125,6 +147,18 @@ impl NormalPass {
                     binding: 4,
                     resource: wgpu::BindingResource::TextureView(boundary_noise),
                 },
+                wgpu::BindGroupEntry {
+                    binding: 5,
+                    resource: wgpu::BindingResource::TextureView(level_imagery),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 6,
+                    resource: wgpu::BindingResource::TextureView(&imagery.view),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 7,
+                    resource: wgpu::BindingResource::Sampler(&imagery.sampler),
+                },
             ],
         });
         let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
@@ -144,7 +178,13 @@ impl NormalPass {
             pipeline,
             params,
             bind_group,
+            imagery,
         }
+    }
+
+    /// The draped image as the pass samples it.
+    pub fn imagery(&self) -> &ImageryTexture {
+        &self.imagery
     }
 
     /// Records the normals of the rectangles the fills of `jobs` wrote (each widened by a
@@ -167,11 +207,13 @@ impl NormalPass {
             .filter(|(r, _)| r.texels() > 0)
             .flat_map(|(r, j)| {
                 let partial_count = partials(j.grid.level);
+                let imagery = self.imagery.geometry();
                 r.anchored_pieces(j.grid.anchor_block())
                     .into_iter()
                     .map(move |(piece, anchor)| {
                         (
-                            NormalParams::new(&j.grid, &piece, anchor, radius_m, partial_count),
+                            NormalParams::new(&j.grid, &piece, anchor, radius_m, partial_count)
+                                .with_imagery(imagery, &j.grid, anchor),
                             piece,
                         )
                     })
@@ -184,6 +226,7 @@ impl NormalPass {
         if blocks.is_empty() {
             return Vec::new();
         }
+        self.imagery.upload(queue);
         let params: Vec<NormalParams> = blocks.iter().map(|(p, _)| *p).collect();
         self.params.write(queue, &params);
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {

@@ -14,6 +14,7 @@ pub use analytic::AnalyticPlanet;
 pub use dem::DemTerrain;
 
 use crate::geo::sphere;
+use crate::imagery::Imagery;
 use crate::procedural::{Detail, DetailParams, RoughnessMap};
 
 /// Where the terrain's base heights come from.
@@ -34,6 +35,9 @@ pub struct Terrain {
     /// Water level, metres (`None`: no water). The surface is then max(h, level) everywhere
     /// (geometry, reference ray caster and metric alike): the sea is a surface, not a tint.
     water_level_m: Option<f64>,
+    /// True colour draped on the surface (`None`: the surface types' rule). Shading only:
+    /// it never changes a height.
+    imagery: Option<Arc<Imagery>>,
 }
 
 impl From<Base> for Terrain {
@@ -42,6 +46,7 @@ impl From<Base> for Terrain {
             base,
             detail: None,
             water_level_m: None,
+            imagery: None,
         }
     }
 }
@@ -101,6 +106,7 @@ impl Terrain {
             base: base_only.base,
             detail,
             water_level_m: self.water_level_m,
+            imagery: self.imagery,
         }
     }
 
@@ -115,6 +121,16 @@ impl Terrain {
             water_level_m: level_m,
             ..self
         }
+    }
+
+    /// The same terrain with `imagery` draped on it (`None`: none).
+    pub fn with_imagery(self, imagery: Option<Arc<Imagery>>) -> Self {
+        Self { imagery, ..self }
+    }
+
+    /// The imagery draped on the surface, if any.
+    pub fn imagery(&self) -> Option<&Arc<Imagery>> {
+        self.imagery.as_ref()
     }
 
     /// The water level, metres, when water is on.

@@ -10,6 +10,7 @@ mod embedded_earth;
 mod file_changes;
 mod geotiff;
 mod hgt;
+mod imagery;
 mod netcdf;
 mod pyramid;
 mod remote;

@@ -13,6 +13,7 @@ mod gpu_detail;
 mod gpu_look;
 mod gpu_normals;
 mod gpu_transform;
+mod imagery;
 mod leave_out;
 mod measure;
 mod mesh_independence;

@@ -105,6 +105,13 @@ pub struct DemArgs {
     /// surface too); off: the bathymetry, tinted.
     #[arg(long, value_name = "on|off", default_value = "on")]
     pub water: Switch,
+    /// True-colour imagery draped on the terrain: `embedded` (NASA's Blue Marble at 4′,
+    /// inside the binary), `off` (the surface types' colours by height, slope and latitude),
+    /// a GeoTIFF in latitude/longitude (RGB or RGBA, 8 bits), or a JPEG/PNG plate carrée as
+    /// `FILE@W,S,E,N` (degrees; without the extent a 2:1 image is taken as the whole Earth)
+    /// [default: embedded; off with --dem analytic, which is not the Earth].
+    #[arg(long, value_name = "SOURCE")]
+    pub imagery: Option<String>,
     /// A remote pyramid (`--dem https://…`, `s3://bucket/key`): the local disk cache of fetched
     /// tiles, MiB (0: none), so a second visit costs no request.
     #[arg(long, value_name = "MIB", default_value_t = 512)]
@@ -153,7 +160,28 @@ impl DemArgs {
         }
         let params = self.detail.params()?;
         let water = self.water.on().then_some(globe::look::SEA_LEVEL_M);
-        Ok(terrain.with_detail(params).with_water_level(water))
+        let imagery = self.imagery_source()?;
+        let imagery = imagery
+            .open()
+            .with_context(|| format!("cannot open the imagery '{}'", self.imagery_spec()))?
+            .map(std::sync::Arc::new);
+        Ok(terrain
+            .with_detail(params)
+            .with_water_level(water)
+            .with_imagery(imagery))
+    }
+
+    /// `--imagery` as given, or its default for `--dem`.
+    pub fn imagery_spec(&self) -> &str {
+        match &self.imagery {
+            Some(s) => s,
+            None if self.dem == "analytic" => "off",
+            None => "embedded",
+        }
+    }
+
+    pub fn imagery_source(&self) -> anyhow::Result<globe::imagery::ImagerySource> {
+        globe::imagery::ImagerySource::parse(self.imagery_spec()).context("invalid --imagery")
     }
 }
 

@@ -8,6 +8,7 @@ use crate::render::RenderError;
 use crate::render::dem_feed::DemFeed;
 use crate::render::detail::DetailResources;
 use crate::render::fill_analytic::FillPass;
+use crate::render::imagery::ImageryTexture;
 use crate::render::normals::NormalPass;
 use crate::render::water_cull::WaterCull;
 use crate::stream::StreamSettings;
@@ -73,8 +74,12 @@ impl Passes {
             NORMAL_JOBS_PER_LEVEL * settings.levels,
             &textures.heights_view,
             &textures.partials_view,
-            &textures.normals_view,
-            &textures.boundary_noise_view,
+            [
+                &textures.normals_view,
+                &textures.boundary_noise_view,
+                &textures.imagery_view,
+            ],
+            ImageryTexture::new(device, terrain.imagery().map(|i| i.as_ref())),
         );
         let water_cull = terrain.water_level_m().is_some().then(|| {
             WaterCull::new(

@@ -81,6 +81,8 @@ pub(super) struct PipelineParts {
     pub(super) detail_on: bool,
     /// The terrain has water (its geometry rule and its shading).
     pub(super) water_on: bool,
+    /// Imagery draped: the fragment reads the level imagery (`IMAGERY`).
+    pub(super) imagery_on: bool,
     pub(super) form: u32,
     /// The level overlay (`Overlays::levels`) the pipelines were built with: its code is
     /// compiled in only while it is on (a CPU rasteriser runs a branch no fragment takes).
@@ -125,6 +127,7 @@ impl PipelineParts {
             color_format,
             detail_on: terrain.detail().is_some(),
             water_on: terrain.water_level_m().is_some(),
+            imagery_on: terrain.imagery().is_some(),
             form: settings.transform.shader_code(),
             level_overlay: false,
         }
@@ -222,6 +225,7 @@ impl PipelineParts {
             ("TRANSFORM", self.form as f64),
             ("TEXTURES", flag(look.textures)),
             ("WATER", flag(self.water_on)),
+            ("IMAGERY", flag(self.imagery_on)),
             ("SKY", flag(look.sky)),
             ("CUT", flag(cut)),
         ]

@@ -3,6 +3,9 @@
 
 use super::TerrainRenderer;
 use crate::clipmap::levels::LevelGrid;
+
+/// A level's imagery texels with their grid (`TerrainRenderer::read_level_imagery`).
+pub type LevelImagery = (LevelGrid, Vec<[u8; 4]>);
 use crate::render::{GpuContext, RenderError, water_cull};
 
 impl TerrainRenderer {
@@ -131,6 +134,26 @@ impl TerrainRenderer {
             .map(|b| std::array::from_fn(|c| f32::from(b[c]) / 255.0))
             .collect();
         Ok(Some((grid, out)))
+    }
+
+    /// The level's imagery (`render::imagery::texel_imagery`, sRGB-encoded bytes, alpha the
+    /// coverage) in grid order as [`TerrainRenderer::read_level`].
+    pub fn read_level_imagery(
+        &self,
+        ctx: &GpuContext,
+        level: u32,
+    ) -> Result<Option<LevelImagery>, RenderError> {
+        let Some(grid) = self.grids.get(level as usize).copied().flatten() else {
+            return Ok(None);
+        };
+        let texels = self.read_layer(ctx, &self.textures.imagery, &grid, 4)?;
+        let out = texels.iter().map(|b| [b[0], b[1], b[2], b[3]]).collect();
+        Ok(Some((grid, out)))
+    }
+
+    /// The draped image as the normal pass samples it (its geometry and mips), if any.
+    pub fn imagery(&self) -> &crate::render::imagery::ImageryTexture {
+        self.passes.normals.imagery()
     }
 
     /// The texels of `texture`'s layer `grid.level` in grid order (row gy0 first, column gx0

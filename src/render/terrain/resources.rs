@@ -7,6 +7,7 @@ use wgpu::util::DeviceExt;
 use crate::clipmap::{ClipmapSettings, RingMesh};
 use crate::render::detail::{self, DetailResources};
 use crate::render::gpu_data::{BumpUniforms, FrameUniforms, LevelUniforms};
+use crate::render::imagery::LEVEL_IMAGERY_FORMAT;
 use crate::render::look::LookResources;
 use crate::render::normals::{BOUNDARY_NOISE_FORMAT, NORMAL_FORMAT};
 use crate::render::shader::MAX_LEVELS;
@@ -73,6 +74,9 @@ pub(super) struct LevelTextures {
     pub(super) normals_view: wgpu::TextureView,
     pub(super) boundary_noise: wgpu::Texture,
     pub(super) boundary_noise_view: wgpu::TextureView,
+    /// The draped imagery per texel (`render::imagery`; sRGB-encoded RGBA, alpha coverage).
+    pub(super) imagery: wgpu::Texture,
+    pub(super) imagery_view: wgpu::TextureView,
     pub(super) normal_sampler: wgpu::Sampler,
 }
 
@@ -104,6 +108,14 @@ impl LevelTextures {
             wgpu::TextureUsages::empty(),
         );
         let boundary_noise_view = array_view(&boundary_noise);
+        let imagery = level_array(
+            device,
+            settings,
+            "clipmap imagery",
+            LEVEL_IMAGERY_FORMAT,
+            wgpu::TextureUsages::empty(),
+        );
+        let imagery_view = array_view(&imagery);
         // Bilinear and toroidal: texel (x, y) holds grid point x, y mod S.
         let normal_sampler = device.create_sampler(&wgpu::SamplerDescriptor {
             label: Some("normal sampler"),
@@ -122,6 +134,8 @@ impl LevelTextures {
             normals_view,
             boundary_noise,
             boundary_noise_view,
+            imagery,
+            imagery_view,
             normal_sampler,
         }
     }
@@ -256,6 +270,7 @@ pub(super) fn bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout 
                 ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
                 count: None,
             },
+            texture_entry(18, fragment, true),
         ],
     })
 }
@@ -344,6 +359,10 @@ pub(super) fn bind_group(
             wgpu::BindGroupEntry {
                 binding: 17,
                 resource: wgpu::BindingResource::Sampler(&look.aerial.sampler),
+            },
+            wgpu::BindGroupEntry {
+                binding: 18,
+                resource: wgpu::BindingResource::TextureView(&textures.imagery_view),
             },
         ],
     })
