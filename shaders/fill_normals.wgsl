@@ -198,5 +198,7 @@ fn cs_main(@builtin(global_invocation_id) id: vec3<u32>) {
     let rel = (params.radius_m + params.ref_m) * d_up + (h0.x + h0.y) * up;
     let footprint_m = params.radius_m * max(dtheta, abs(st) * dphi);
     textureStore(out_materials, slot, params.layer, texel_boundary_noise(rel, footprint_m));
-    textureStore(out_imagery, slot, params.layer, texel_imagery(i, j));
+    if params.imagery_size.w != 0.0 {
+        textureStore(out_imagery, slot, params.layer, texel_imagery(i, j));
+    }
 }

@@ -169,7 +169,7 @@ impl TerrainRenderer {
         check_settings(&settings, &terrain)?;
         let mesh = RingMesh::build(&settings);
         let buffers = FrameBuffers::new(device, &mesh);
-        let textures = LevelTextures::new(device, &settings);
+        let textures = LevelTextures::new(device, &settings, terrain.imagery().is_some());
         let passes = Passes::new(device, &settings, &terrain, &textures, stream)?;
         let look_resources = LookResources::new(device, color_format);
         let layout = resources::bind_group_layout(device);

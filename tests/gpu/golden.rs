@@ -46,6 +46,16 @@ const MAX_MEAN_CHANNEL_DIFF: f64 = 0.5;
 /// Environment variable that rewrites the goldens from the current renders.
 const BLESS_VAR: &str = "GLOBE_BLESS";
 
+/// The look a golden is drawn with.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Look {
+    Plain,
+    /// The default look without imagery (the surface types by height, slope and latitude).
+    Full,
+    /// The default look with the embedded imagery (what the CLI draws by default).
+    Imagery,
+}
+
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Overlay {
     None,
@@ -172,17 +182,25 @@ fn render(
     settings: ClipmapSettings,
     overlay: Overlay,
     detail: bool,
-    look: bool,
+    look: Look,
 ) -> Vec<u8> {
+    let imagery = (look == Look::Imagery).then(|| {
+        let img = globe::imagery::ImagerySource::Embedded
+            .open()
+            .unwrap()
+            .unwrap();
+        std::sync::Arc::new(img)
+    });
     let terrain = Terrain::embedded_earth()
         .expect("embedded Earth")
         .with_detail(detail.then(globe::procedural::DetailParams::default))
-        .with_water_level(look.then_some(globe::look::SEA_LEVEL_M));
+        .with_water_level((look != Look::Plain).then_some(globe::look::SEA_LEVEL_M))
+        .with_imagery(imagery);
     let mut r = TerrainRenderer::new(&ctx.device, settings, terrain, COLOR_FORMAT).unwrap();
     r.overlays.levels = overlay == Overlay::Levels;
     r.set_look(
         &ctx.device,
-        if look {
+        if look != Look::Plain {
             LookSettings::default()
         } else {
             LookSettings::plain()
@@ -208,7 +226,7 @@ fn check(name: &str, scene: &str, overlay: Overlay) {
         ClipmapSettings::default(),
         overlay,
         false,
-        false,
+        Look::Plain,
     );
 }
 
@@ -221,7 +239,21 @@ fn check_look(scene: &str) {
         ClipmapSettings::default(),
         Overlay::None,
         true,
+        Look::Full,
+    );
+}
+
+/// `scene` with the full look, water, detail and the embedded imagery (the CLI's default):
+/// `tests/golden/<scene>-imagery.png`.
+fn check_imagery(scene: &str) {
+    let name = format!("{scene}-imagery");
+    check_with(
+        &name,
+        scene,
+        ClipmapSettings::default(),
+        Overlay::None,
         true,
+        Look::Imagery,
     );
 }
 
@@ -231,7 +263,7 @@ fn check_with(
     settings: ClipmapSettings,
     overlay: Overlay,
     detail: bool,
-    look: bool,
+    look: Look,
 ) {
     let Some((ctx, _guard)) = common::gpu() else {
         return;
@@ -306,6 +338,16 @@ fn check_with(
 }
 
 #[test]
+fn space_imagery() {
+    check_imagery("space");
+}
+
+#[test]
+fn ground_imagery() {
+    check_imagery("ground");
+}
+
+#[test]
 fn space() {
     check("space", "space", Overlay::None);
 }
@@ -360,7 +402,7 @@ fn everest_coarse_error_overlay() {
         coarse(),
         Overlay::Error,
         false,
-        false,
+        Look::Plain,
     );
 }
 
@@ -374,7 +416,7 @@ fn ground_with_detail() {
         ClipmapSettings::default(),
         Overlay::None,
         true,
-        false,
+        Look::Plain,
     );
 }
 
@@ -386,7 +428,7 @@ fn everest_with_detail() {
         ClipmapSettings::default(),
         Overlay::None,
         true,
-        false,
+        Look::Plain,
     );
 }
 

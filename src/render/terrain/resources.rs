@@ -81,7 +81,13 @@ pub(super) struct LevelTextures {
 }
 
 impl LevelTextures {
-    pub(super) fn new(device: &wgpu::Device, settings: &ClipmapSettings) -> Self {
+    /// The textures for `settings`; the imagery layers are full-size only `with_imagery`
+    /// (otherwise 1 × 1 stand-ins: the normal pass writes none).
+    pub(super) fn new(
+        device: &wgpu::Device,
+        settings: &ClipmapSettings,
+        with_imagery: bool,
+    ) -> Self {
         let heights = level_array(
             device,
             settings,
@@ -108,9 +114,13 @@ impl LevelTextures {
             wgpu::TextureUsages::empty(),
         );
         let boundary_noise_view = array_view(&boundary_noise);
+        let stand_in = ClipmapSettings {
+            texture_size: 1,
+            ..settings.clone()
+        };
         let imagery = level_array(
             device,
-            settings,
+            if with_imagery { settings } else { &stand_in },
             "clipmap imagery",
             LEVEL_IMAGERY_FORMAT,
             wgpu::TextureUsages::empty(),
