@@ -143,9 +143,10 @@ pub fn encode(c: [f64; 4]) -> [u8; 4] {
     ]
 }
 
-/// The 256 linear values of the sRGB bytes.
-fn decode_table() -> [f32; 256] {
-    std::array::from_fn(|i| srgb_to_linear(i as f64 / 255.0) as f32)
+/// The 256 linear values of the sRGB bytes (built once).
+fn decode_table() -> &'static [f32; 256] {
+    static TABLE: std::sync::OnceLock<[f32; 256]> = std::sync::OnceLock::new();
+    TABLE.get_or_init(|| std::array::from_fn(|i| srgb_to_linear(i as f64 / 255.0) as f32))
 }
 
 impl Imagery {
@@ -226,7 +227,7 @@ impl Imagery {
             height: self.height,
             rgba: Vec::new(),
         };
-        Some(mip.bilinear(&self.rgba, x / w, y / h, self.wraps(), &decode_table()))
+        Some(mip.bilinear(&self.rgba, x / w, y / h, self.wraps(), decode_table()))
     }
 
     /// The mipmap chain: level 0 this image, each next one half as large (rounded down, at
@@ -240,7 +241,7 @@ impl Imagery {
             rgba: self.rgba.clone(),
         }];
         while let Some(last) = chain.last().filter(|m| m.width > 1 || m.height > 1) {
-            let next = last.halved(&table);
+            let next = last.halved(table);
             chain.push(next);
         }
         chain
@@ -281,7 +282,7 @@ impl Mip {
 
     /// Bilinear at (u, v) of this mip (its own bytes).
     pub fn sample_uv(&self, u: f64, v: f64, wrap: bool) -> [f64; 4] {
-        self.bilinear(&self.rgba, u, v, wrap, &decode_table())
+        self.bilinear(&self.rgba, u, v, wrap, decode_table())
     }
 
     /// The next mip: each pixel the coverage-weighted linear average of the area it spans.
