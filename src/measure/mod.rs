@@ -9,6 +9,7 @@
 //! | file | concern |
 //! | --- | --- |
 //! | [`reference`] | [`HeightField`] (the terrain function and its local bounds), the ray caster giving each pixel's true hit or sky |
+//! | [`probe`] | the surface point through one pixel (latitude, longitude, height), from the ray caster |
 //! | [`metric`] | per-pixel δ and ρ from a rendered depth buffer, coverage against the reference, statistics, heat map |
 //!
 //! | frame | convention (as [`crate::geo`]) |
@@ -18,6 +19,7 @@
 //! | distance | metres along the unit ray from the eye ([`crate::geo::pixel_ray_view`]) |
 
 pub mod metric;
+pub mod probe;
 pub mod reference;
 
 pub use metric::{
@@ -25,6 +27,7 @@ pub use metric::{
     evaluate_within, heat_rgb, measure_frame, overlay_heat, pixel_error, rho_image,
     write_heat_map_png,
 };
+pub use probe::{ProbeHit, probe_pixel};
 pub use reference::{
     ConstantHeight, HeightField, LocalBounds, PROGRESS_INTERVAL, PixelSet, RayCastOptions,
     RayCaster, RayHit, ReferenceImage, ReferencePixel, SPLITS, ScaleSplit,

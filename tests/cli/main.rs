@@ -8,4 +8,5 @@ mod common;
 mod bench_report;
 mod detail_editor;
 mod headless_cli;
+mod probe;
 mod soak;

@@ -4,6 +4,7 @@
 use clap::{Parser, Subcommand};
 
 use crate::bench::BenchArgs;
+use crate::probe::ProbeArgs;
 use crate::render::RenderArgs;
 use crate::report::ReportArgs;
 use crate::viewer::ViewerArgs;
@@ -34,6 +35,10 @@ pub enum Command {
     /// Run every method and setting over the named scenes and write report.csv, report.json,
     /// report.md and error_vs_time.png/.svg: triangles, CPU/GPU time and the per-pixel error ρ.
     Report(ReportArgs),
+    /// What lies under one pixel of a --scene or --camera view: latitude, longitude, height
+    /// and distance from the eye, from the f64 ray caster over the terrain function (detail
+    /// and water included: the surface that is drawn and measured). No GPU needed.
+    Probe(ProbeArgs),
     /// List the named scenes (the viewer's bookmarks).
     Scenes,
 }

@@ -6,6 +6,7 @@
 mod args;
 mod bench;
 mod cli;
+mod probe;
 mod render;
 mod report;
 mod scenes;
@@ -45,6 +46,7 @@ fn run() -> anyhow::Result<ExitCode> {
         Some(Command::Render(args)) => render::render(&args),
         Some(Command::Bench(args)) => bench::bench(&args),
         Some(Command::Report(args)) => report::report(&args),
+        Some(Command::Probe(args)) => probe::probe(&args),
         None => viewer::viewer(&cli.viewer),
     }
 }
