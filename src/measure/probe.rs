@@ -52,9 +52,7 @@ fn hit_at<H: HeightField + ?Sized>(
     distance_m: f64,
 ) -> ProbeHit {
     let u = (camera.view_frame().world_from_view * point_view_m).normalize();
-    // atan2, not acos: acos loses half the digits near the poles.
-    let theta = u.x.hypot(u.y).atan2(u.z);
-    let phi = u.y.atan2(u.x);
+    let (phi, theta, _) = sphere::phi_theta_height_from_ecef_m(u, 1.0);
     let (lat_deg, lon_deg) = sphere::lat_lon_deg_from_phi_theta(phi, theta);
     ProbeHit {
         lat_deg,
