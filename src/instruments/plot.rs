@@ -27,9 +27,11 @@ use plotters::style::{FontStyle, RGBColor, register_font};
 use crate::measure::MeasureError;
 
 mod axes;
+pub mod profile;
 
 pub use axes::Axis;
 use axes::{TickedAxis, resolve_axis};
+pub use profile::{profile_png, profile_svg};
 
 /// One setting of the plot: `x` its time in ms, `y` its error in px. Points of one `group`
 /// share a marker colour and shape; `label` is written beside the marker.

@@ -10,6 +10,7 @@
 //! | --- | --- |
 //! | [`reference`] | [`HeightField`] (the terrain function and its local bounds), the ray caster giving each pixel's true hit or sky |
 //! | [`probe`] | the surface point through one pixel (latitude, longitude, height), from the ray caster |
+//! | [`profile`] | the terrain's heights along a great circle, and its length along the sphere and along the terrain |
 //! | [`metric`] | per-pixel δ and ρ from a rendered depth buffer, coverage against the reference, statistics, heat map |
 //!
 //! | frame | convention (as [`crate::geo`]) |
@@ -20,6 +21,7 @@
 
 pub mod metric;
 pub mod probe;
+pub mod profile;
 pub mod reference;
 
 pub use metric::{
@@ -28,6 +30,7 @@ pub use metric::{
     write_heat_map_png,
 };
 pub use probe::{ProbeHit, probe_pixel};
+pub use profile::{Profile, ProfileError, ProfilePoint, great_circle_profile};
 pub use reference::{
     ConstantHeight, HeightField, LocalBounds, PROGRESS_INTERVAL, PixelSet, RayCastOptions,
     RayCaster, RayHit, ReferenceImage, ReferencePixel, SPLITS, ScaleSplit,

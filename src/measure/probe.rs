@@ -42,16 +42,29 @@ pub fn probe_pixel<H: HeightField + ?Sized>(
     }
 }
 
-/// The hit at view-space point `point_view_m` (planet centre at the origin): its direction
-/// in the world frame gives latitude and longitude, the terrain function there the height
-/// (exact at that direction; |p| − R agrees with it to the caster's refinement).
+/// The hit at view-space point `point_view_m` (planet centre at the origin).
 fn hit_at<H: HeightField + ?Sized>(
     field: &H,
     camera: &Camera,
     point_view_m: DVec3,
     distance_m: f64,
 ) -> ProbeHit {
-    let u = (camera.view_frame().world_from_view * point_view_m).normalize();
+    hit_at_world(
+        field,
+        camera.view_frame().world_from_view * point_view_m,
+        distance_m,
+    )
+}
+
+/// The hit at world point `point_world_m` (planet centre at the origin), `distance_m` from
+/// the eye: its direction gives latitude and longitude, the terrain function there the height
+/// (exact at that direction; |p| − R agrees with it to the caster's refinement).
+pub fn hit_at_world<H: HeightField + ?Sized>(
+    field: &H,
+    point_world_m: DVec3,
+    distance_m: f64,
+) -> ProbeHit {
+    let u = point_world_m.normalize();
     let (phi, theta, _) = sphere::phi_theta_height_from_ecef_m(u, 1.0);
     let (lat_deg, lon_deg) = sphere::lat_lon_deg_from_phi_theta(phi, theta);
     ProbeHit {

@@ -24,9 +24,11 @@ use crate::terrain::Terrain;
 
 use super::controls;
 use super::editor::{Editor, EditorView};
+use super::fly_to::{FlyTo, closer_look};
 use super::gpu::{Acquired, Gpu};
 use super::input::{Drag, Input};
 use super::panel::{FrameStats, LiveSettings, MeshDraft, Panel, PanelAction, Readout};
+use super::pick::{PickRequest, Picker};
 use super::{UiError, ViewerOptions};
 
 /// Environment variable of the smoke check: screenshot after this many frames, then quit.
@@ -91,15 +93,21 @@ fn terrain_height_m(planet: &Terrain, lat_deg: f64, lon_deg: f64) -> f64 {
     planet.height_m(sphere::unit_vector(phi, theta))
 }
 
-/// The ground height the controls steer by: from the streamed tiles at hand when the terrain is
-/// a DEM (the render thread never waits for the file), else the terrain function. Jumps to a
-/// scene use the terrain function itself, to place the camera exactly.
+/// The ground height the controls steer by and the panel shows: the drawn surface (every
+/// octave of the detail, the water), from the streamed tiles at hand when the terrain is a
+/// DEM (the render thread never waits for the file), else the terrain function. It is the
+/// ground the frame plan stands the camera on. Jumps to a scene use the terrain function
+/// itself, to place the camera exactly.
 fn ground<'a>(gpu: Option<&'a Gpu>, planet: &'a Terrain) -> impl Fn(f64, f64) -> f64 + Copy + 'a {
     move |lat, lon| match gpu.and_then(|g| g.terrain.feed()) {
-        Some(feed) => feed.height_at_m(lat, lon),
+        Some(feed) => feed.tiles().ground_m(lat, lon).0,
         None => terrain_height_m(planet, lat, lon),
     }
 }
+
+/// Two presses of the left button this close in time and place make a double-click.
+const DOUBLE_CLICK_S: f64 = 0.4;
+const DOUBLE_CLICK_PX: f64 = 5.0;
 
 struct App {
     display: OwnedDisplayHandle,
@@ -123,6 +131,12 @@ struct App {
     error_overlay: Option<(Camera, egui::TextureHandle)>,
     /// The detail editor's window (opened from the panel).
     editor: Editor,
+    /// What lies under the cursor, cast on its own thread.
+    picker: Picker,
+    /// A flight to a view under way, and when it started.
+    fly: Option<(FlyTo, Instant)>,
+    /// The last left press on the terrain (a second one soon after is a double-click).
+    last_press: Option<(Instant, PhysicalPosition<f64>)>,
     /// File changes already printed on stderr (each is printed once).
     file_changes_printed: u64,
 }
@@ -163,6 +177,9 @@ impl App {
             opened: Instant::now(),
             error_overlay: None,
             editor,
+            picker: Picker::new(),
+            fly: None,
+            last_press: None,
             file_changes_printed: 0,
         }
     }
@@ -216,6 +233,7 @@ impl App {
             }
             self.file_changes_printed = st.file_changes_total;
         }
+        self.ask_pick(width, height);
         let Some((output, actions, detail)) = self.run_panel(&info, terrain_here_m) else {
             return;
         };
@@ -254,13 +272,20 @@ impl App {
                 self.panel.message = Some("flight: arrived at the ground".into());
             }
         }
-        controls::fly(
-            &mut self.camera,
-            &self.input.fly_input(),
-            dt_s,
-            radius_m,
-            terrain,
-        );
+        let keys = self.input.fly_input();
+        if let Some((flight, started)) = &self.fly {
+            if keys.is_idle() {
+                let (camera, arrived) = flight.at(started.elapsed().as_secs_f64(), terrain);
+                self.camera = camera;
+                if arrived {
+                    self.fly = None;
+                }
+            } else {
+                // A key takes the controls back where the flight has got to.
+                self.fly = None;
+            }
+        }
+        controls::fly(&mut self.camera, &keys, dt_s, radius_m, terrain);
         terrain(self.camera.lat_deg, self.camera.lon_deg)
     }
 
@@ -289,7 +314,9 @@ impl App {
             textures: gpu.terrain.look().textures,
             sky: gpu.terrain.look().sky,
         };
+        let picked = self.picker.poll().copied();
         let readout = Readout {
+            picked: picked.as_ref(),
             stats: &self.stats,
             info: Some(info),
             camera: &self.camera,
@@ -433,13 +460,68 @@ impl App {
         }
     }
 
-    /// Puts the camera at `view` (stopping a flight), placed on the terrain function itself.
+    /// Flies the camera to `view` (stopping the `flight` path), placed on the terrain function
+    /// itself.
     fn go_to(&mut self, view: &CameraSpec) {
         self.flight_started = None;
         let planet = &self.planet;
         let terrain = |lat: f64, lon: f64| terrain_height_m(planet, lat, lon);
-        self.camera = view.camera(terrain);
-        controls::normalize(&mut self.camera, terrain);
+        let mut target = view.camera(terrain);
+        controls::normalize(&mut target, terrain);
+        self.fly_to(target);
+    }
+
+    /// Starts a flight from the camera to `target`.
+    fn fly_to(&mut self, target: Camera) {
+        let terrain = ground(self.gpu.as_ref(), &self.planet);
+        let flight = FlyTo::new(&self.camera, &target, self.planet.radius_m(), terrain);
+        self.fly = Some((flight, Instant::now()));
+    }
+
+    /// Asks the picker for the pixel under the cursor (the window's `width` × `height`), or
+    /// forgets it while the cursor is off the terrain.
+    fn ask_pick(&mut self, width: u32, height: u32) {
+        let over_egui = self
+            .gpu
+            .as_ref()
+            .is_some_and(|g| self.pointer_over_egui(g.egui_state.egui_ctx()));
+        let pixel = self.input.cursor.filter(|_| !over_egui).and_then(|c| {
+            let (x, y) = (c.x.floor(), c.y.floor());
+            (x >= 0.0 && y >= 0.0 && x < f64::from(width) && y < f64::from(height))
+                .then_some((x as u32, y as u32))
+        });
+        match pixel {
+            Some((x, y)) => self.picker.ask(
+                PickRequest {
+                    camera: self.camera,
+                    width,
+                    height,
+                    x,
+                    y,
+                },
+                &self.planet,
+            ),
+            None => self.picker.clear(),
+        }
+    }
+
+    /// A double-click flies to the point under the cursor (the newest pick's).
+    fn double_click(&mut self) {
+        let Some(picked) = self.picker.poll().copied() else {
+            return;
+        };
+        let Some((hit, world)) = picked.hit else {
+            self.panel.message = Some("double-click: only sky under the cursor".into());
+            return;
+        };
+        let target = closer_look(&self.camera, world, self.planet.radius_m());
+        self.fly_to(target);
+        self.panel.message = Some(format!(
+            "flying to {:.6}°, {:.6}° ({})",
+            hit.lat_deg,
+            hit.lon_deg,
+            super::panel::format_length_m(hit.height_m)
+        ));
     }
 
     fn rebuild_renderer(&mut self, settings: crate::clipmap::ClipmapSettings) {
@@ -610,6 +692,22 @@ impl App {
                 if over_egui || self.input.drag.is_some() {
                     return;
                 }
+                self.fly = None;
+                if button == MouseButton::Left
+                    && let Some(cursor) = self.input.cursor
+                {
+                    let now = Instant::now();
+                    let double = self.last_press.is_some_and(|(t, p)| {
+                        now.duration_since(t).as_secs_f64() < DOUBLE_CLICK_S
+                            && (p.x - cursor.x).hypot(p.y - cursor.y) < DOUBLE_CLICK_PX
+                    });
+                    if double {
+                        self.last_press = None;
+                        self.double_click();
+                        return;
+                    }
+                    self.last_press = Some((now, cursor));
+                }
                 let drag = match button {
                     MouseButton::Left if self.input.modifiers.shift_key() => Drag::Pan,
                     MouseButton::Left => Drag::Look,
@@ -650,6 +748,7 @@ impl App {
             // Touchpads: about 40 pixels per notch.
             MouseScrollDelta::PixelDelta(p) => p.y / 40.0,
         };
+        self.fly = None;
         let terrain = ground(self.gpu.as_ref(), &self.planet);
         controls::zoom(&mut self.camera, notches, terrain);
     }

@@ -7,6 +7,8 @@
 //! | `gpu.rs` | the wgpu surface, depth buffer and egui renderer; one frame's encoding and present |
 //! | `input.rs` | mouse and keyboard state between events |
 //! | `controls.rs` | pure f64 camera controls (look, pan, zoom, fly), unit-tested |
+//! | `fly_to.rs` | flights between views (up, over, down) and the view looking at a picked point, unit-tested |
+//! | `pick.rs` | what lies under the cursor: the f64 ray caster on a thread of its own |
 //! | `panel.rs` | the egui side panel: statistics, level table, settings, "go to"; no wgpu code |
 //! | `editor.rs` | the detail editor window: sliders, presets, load/save/reset, basis images, relief brush; no wgpu code |
 //!
@@ -20,6 +22,7 @@
 //! | W/S, A/D, Q/E | fly forward/back, strafe left/right, down/up; speed ∝ height above terrain |
 //! | arrow keys | turn (left/right) and pitch (up/down) |
 //! | Shift (with W/S/A/D/Q/E) | 5 × faster |
+//! | double-click | fly to the point under the cursor (a third of the way from it back to the eye, looking at it) |
 //! | F12, P | screenshot: `globe-screenshot-<unix seconds>.png` in the current directory |
 //!
 //! Hidden options for automated checks: `GLOBE_VIEWER_SMOKE_FRAMES=N` takes a screenshot after N
@@ -29,9 +32,11 @@
 mod app;
 pub mod controls;
 pub mod editor;
+pub mod fly_to;
 mod gpu;
 mod input;
 pub mod panel;
+pub mod pick;
 
 use crate::clipmap::ClipmapSettings;
 use crate::render::RenderError;

@@ -137,6 +137,9 @@ pub struct LiveSettings {
 
 /// What the panel shows this frame.
 pub struct Readout<'a> {
+    /// What lies under the cursor (None: the cursor is off the terrain's part of the window,
+    /// or the first answer has not come yet).
+    pub picked: Option<&'a crate::ui::pick::Picked>,
     pub stats: &'a FrameStats,
     /// What the renderer decided for the last frame (None before the first frame).
     pub info: Option<&'a FrameInfo>,
@@ -658,6 +661,31 @@ fn camera_section(ui: &mut egui::Ui, readout: &Readout<'_>) {
             row("pitch", format!("{:.2}°", c.pitch_deg));
             row("roll", format!("{:.2}°", c.roll_deg));
         });
+    ui.strong("Under the cursor");
+    egui::Grid::new("pick readout")
+        .num_columns(2)
+        .show(ui, |ui| {
+            for (name, value) in pick_rows(readout.picked) {
+                ui.label(name);
+                ui.monospace(value);
+                ui.end_row();
+            }
+        });
+}
+
+/// The rows of the "under the cursor" section: the surface point the f64 ray caster finds
+/// there (detail and water included), sky, or a dash while there is no answer.
+pub fn pick_rows(picked: Option<&crate::ui::pick::Picked>) -> Vec<(&'static str, String)> {
+    match picked.map(|p| p.hit) {
+        None => vec![("point", "–".to_string())],
+        Some(None) => vec![("point", "sky".to_string())],
+        Some(Some((hit, _))) => vec![
+            ("lat", format!("{:.6}°", hit.lat_deg)),
+            ("lon", format!("{:.6}°", hit.lon_deg)),
+            ("height", format_length_m(hit.height_m)),
+            ("distance", format_length_m(hit.distance_m)),
+        ],
+    }
 }
 
 /// Metres, with kilometres beside them from 1 km up; millimetres stay visible near the ground.
@@ -818,6 +846,7 @@ mod tests {
         assert!(panel.submit_goto(crate::geo::EARTH_RADIUS_M).is_none());
         for info in [None, Some(&info)] {
             let readout = Readout {
+                picked: None,
                 stats: &stats,
                 info,
                 camera: &camera,
@@ -843,5 +872,44 @@ mod tests {
             assert!(actions.is_empty());
             assert!(!output.shapes.is_empty());
         }
+    }
+
+    /// The cursor's rows say what the pick found: a dash before any answer, sky, or the point.
+    #[test]
+    fn the_cursor_rows_say_what_the_pick_found() {
+        use crate::ui::pick::{PickRequest, Picked};
+        let request = PickRequest {
+            camera: crate::geo::camera::Camera {
+                lat_deg: 0.0,
+                lon_deg: 0.0,
+                altitude_m: 10.0,
+                heading_deg: 0.0,
+                pitch_deg: -90.0,
+                roll_deg: 0.0,
+                fov_y_deg: 60.0,
+            },
+            width: 3,
+            height: 3,
+            x: 1,
+            y: 1,
+        };
+        assert_eq!(pick_rows(None), vec![("point", "–".to_string())]);
+        let sky = Picked { request, hit: None };
+        assert_eq!(pick_rows(Some(&sky)), vec![("point", "sky".to_string())]);
+        let hit = crate::measure::ProbeHit {
+            lat_deg: 46.5,
+            lon_deg: -7.25,
+            height_m: 1234.5678,
+            distance_m: 2.0,
+        };
+        let point = Picked {
+            request,
+            hit: Some((hit, glam::DVec3::X)),
+        };
+        let rows = pick_rows(Some(&point));
+        assert_eq!(rows[0], ("lat", "46.500000°".to_string()));
+        assert_eq!(rows[1], ("lon", "-7.250000°".to_string()));
+        assert_eq!(rows[2], ("height", "1234.6 m (1.235 km)".to_string()));
+        assert_eq!(rows[3], ("distance", "2.000 m".to_string()));
     }
 }

@@ -9,4 +9,5 @@ mod bench_report;
 mod detail_editor;
 mod headless_cli;
 mod probe;
+mod profile;
 mod soak;

@@ -5,6 +5,7 @@ use clap::{Parser, Subcommand};
 
 use crate::bench::BenchArgs;
 use crate::probe::ProbeArgs;
+use crate::profile::ProfileArgs;
 use crate::render::RenderArgs;
 use crate::report::ReportArgs;
 use crate::viewer::ViewerArgs;
@@ -39,6 +40,11 @@ pub enum Command {
     /// and distance from the eye, from the f64 ray caster over the terrain function (detail
     /// and water included: the surface that is drawn and measured). No GPU needed.
     Probe(ProbeArgs),
+    /// The terrain's profile along the great circle between two places: heights at N equally
+    /// spaced points (the terrain function at full resolution, detail and water included) to a
+    /// CSV, optionally drawn as a PNG or SVG; prints the great-circle distance, the distance
+    /// along the terrain and the heights. No GPU needed.
+    Profile(ProfileArgs),
     /// List the named scenes (the viewer's bookmarks).
     Scenes,
 }

@@ -7,6 +7,7 @@ mod args;
 mod bench;
 mod cli;
 mod probe;
+mod profile;
 mod render;
 mod report;
 mod scenes;
@@ -47,6 +48,7 @@ fn run() -> anyhow::Result<ExitCode> {
         Some(Command::Bench(args)) => bench::bench(&args),
         Some(Command::Report(args)) => report::report(&args),
         Some(Command::Probe(args)) => probe::probe(&args),
+        Some(Command::Profile(args)) => profile::profile(&args),
         None => viewer::viewer(&cli.viewer),
     }
 }
