@@ -167,18 +167,18 @@ fn heights_down_a_meridian_are_gdals_pixels() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
-/// Haversine distance in metres on the sphere of radius R (a formula of its own, apart from
-/// the library's atan2 form).
-fn haversine_m((lat1, lon1): (f64, f64), (lat2, lon2): (f64, f64)) -> f64 {
+/// The great-circle distance in metres on the sphere of radius R by Vincenty's formula for
+/// the sphere (a form of its own, apart from the library's vector form).
+fn vincenty_m((lat1, lon1): (f64, f64), (lat2, lon2): (f64, f64)) -> f64 {
     let (p1, p2) = (lat1.to_radians(), lat2.to_radians());
-    let dp = p2 - p1;
     let dl = (lon2 - lon1).to_radians();
-    let h = (dp / 2.0).sin().powi(2) + p1.cos() * p2.cos() * (dl / 2.0).sin().powi(2);
-    2.0 * EARTH_RADIUS_M * h.sqrt().asin()
+    let y = (p2.cos() * dl.sin()).hypot(p1.cos() * p2.sin() - p1.sin() * p2.cos() * dl.cos());
+    let x = p1.sin() * p2.sin() + p1.cos() * p2.cos() * dl.cos();
+    EARTH_RADIUS_M * y.atan2(x)
 }
 
-/// London to New York: every point lies on the great circle (its haversine distances to the
-/// two ends add up to the whole, to a millimetre, and the first is the CSV's distance), the
+/// London to New York: the length is Vincenty's great-circle distance (±1 mm per km), every
+/// point lies on the great circle (its distances to the two ends add up to the whole, and the first is the CSV's distance), the
 /// points are equally spaced, and the distance along the terrain printed is the polyline
 /// through the CSV's points at their heights.
 #[test]
@@ -202,7 +202,7 @@ fn a_long_arc_lies_on_the_great_circle() {
     assert!(ok, "{err}");
     let rows = rows(&csv);
     assert_eq!(rows.len(), 501);
-    let total = haversine_m(a, b);
+    let total = vincenty_m(a, b);
     assert!(
         (rows[500][0] - total).abs() < 1e-3,
         "{} vs {total}",
@@ -212,7 +212,7 @@ fn a_long_arc_lies_on_the_great_circle() {
     let mut previous: Option<glam::DVec3> = None;
     for (k, row) in rows.iter().enumerate() {
         let p = (row[1], row[2]);
-        let (d_from, d_to) = (haversine_m(a, p), haversine_m(p, b));
+        let (d_from, d_to) = (vincenty_m(a, p), vincenty_m(p, b));
         assert!(
             (d_from + d_to - total).abs() < 2e-3,
             "row {k}: off the arc by {} m",
@@ -319,6 +319,51 @@ fn impossible_profiles_are_refused() {
         all.extend(["--out", out]);
         let (ok, _, err) = profile(&dir, &all);
         assert!(!ok && err.contains(says), "{args:?}: {err}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The profile's two ends have the heights `globe probe` finds there: straight down from 2 m
+/// above the ground, the centre pixel (the default terrain: the Earth with detail and water).
+#[test]
+fn the_ends_are_where_probe_finds_the_ground() {
+    let dir = temp_dir("ends");
+    let csv = dir.join("ends.csv");
+    let (ok, _, err) = profile(
+        &dir,
+        &[
+            "--from",
+            "46.2,7.7",
+            "--to",
+            "46.6,8.1",
+            "--samples",
+            "11",
+            "--out",
+            csv.to_str().unwrap(),
+        ],
+    );
+    assert!(ok, "{err}");
+    let rows = rows(&csv);
+    for row in [rows[0], rows[10]] {
+        let run = Command::new(env!("CARGO_BIN_EXE_globe"))
+            .args(["probe", &format!("--camera={},{},2,0,-90", row[1], row[2])])
+            .args([
+                "--pixel", "50,50", "--width", "101", "--height", "101", "--json",
+            ])
+            .output()
+            .unwrap();
+        assert!(
+            run.status.success(),
+            "{}",
+            String::from_utf8_lossy(&run.stderr)
+        );
+        let v: serde_json::Value = serde_json::from_slice(&run.stdout).unwrap();
+        let probed = v["height_m"].as_f64().unwrap();
+        // The CSV keeps 4 decimals; the probe's hit lies within 1e-7° of the nadir.
+        assert!(
+            (probed - row[3]).abs() < 0.01,
+            "{row:?}: probe says {probed} m"
+        );
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
