@@ -7,9 +7,11 @@
 
 pub mod atmosphere;
 pub mod proto;
+pub mod sun;
 
 pub use atmosphere::{Atmosphere, SKY_RING_SEGMENTS, SkyRing};
 pub use proto::MipKind;
+pub use sun::{Sun, TimeError, Utc};
 
 /// Which parts of the look are drawn. Each off gives back the plain image: hypsometric tint,
 /// one Lambert light, a flat sky colour (what measurements of raw terrain colour need).
@@ -23,6 +25,8 @@ pub struct LookSettings {
     pub sky: bool,
     /// The proto-textures' mipmaps (§4.2's variance-reducing ones, or plain).
     pub mips: MipKind,
+    /// Where the sun stands: the same in every viewer's sky, or the real one at a moment.
+    pub sun: Sun,
 }
 
 impl Default for LookSettings {
@@ -31,6 +35,7 @@ impl Default for LookSettings {
             textures: true,
             sky: true,
             mips: MipKind::VarianceReducing,
+            sun: Sun::Fixed,
         }
     }
 }
@@ -42,6 +47,7 @@ impl LookSettings {
             textures: false,
             sky: false,
             mips: MipKind::VarianceReducing,
+            sun: Sun::Fixed,
         }
     }
 }

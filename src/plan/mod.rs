@@ -28,6 +28,7 @@ use glam::{DMat3, DMat4, DVec3};
 
 use crate::geo::camera::Camera;
 use crate::geo::{projection, sphere};
+use crate::look::Sun;
 use crate::planar::projgrid::CellBounds;
 use crate::terrain::Terrain;
 use crate::terrain::at_hand::TilesAtHand;
@@ -88,11 +89,6 @@ pub struct LodSettings {
     pub geomip: crate::planar::geomip::GeomipSettings,
     pub projgrid: crate::planar::projgrid::ProjGridSettings,
 }
-
-/// Direction to the sun in the viewer's local frame: 35° above the horizon in the south-east,
-/// so every named scene is lit from the same side (a fixed world sun would leave some dark).
-pub const SUN_ELEVATION_DEG: f64 = 35.0;
-pub const SUN_AZIMUTH_DEG: f64 = 135.0;
 
 /// Where a height the plan used came from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -280,9 +276,8 @@ impl ViewPlan {
         let camera_from_view = camera.view_from_camera().transpose();
         let clip_from_view =
             camera.clip_from_camera(aspect, near_m) * DMat4::from_mat3(camera_from_view);
-        let (el, az) = (SUN_ELEVATION_DEG.to_radians(), SUN_AZIMUTH_DEG.to_radians());
-        // Local east-north-up → view space: east = ỹ, north = −x̃, up = z̃.
-        let sun_view = DVec3::new(-el.cos() * az.cos(), el.cos() * az.sin(), el.sin());
+        // The fixed sun unless the look says otherwise ([`ViewPlan::with_sun`]).
+        let sun_view = Sun::Fixed.view_direction(frame.world_from_view);
         Self {
             camera: *camera,
             width_px,
@@ -300,6 +295,15 @@ impl ViewPlan {
             clip_from_view,
             sun_view,
             sky_linear: sky_colour(camera.altitude_m),
+        }
+    }
+
+    /// The same view lit by `sun` (the fixed sun in every viewer's sky, or the real one at a
+    /// moment: `look::sun`).
+    pub fn with_sun(self, sun: Sun) -> Self {
+        Self {
+            sun_view: sun.view_direction(self.camera.view_frame().world_from_view),
+            ..self
         }
     }
 

@@ -560,7 +560,7 @@ impl TerrainRenderer {
         width_px: u32,
         height_px: u32,
     ) -> (ViewPlan, ClipmapPlan) {
-        let view = ViewPlan::new(camera, width_px, height_px, self.query());
+        let view = ViewPlan::new(camera, width_px, height_px, self.query()).with_sun(self.look.sun);
         // At rest (the same camera twice), levels take their ideal φ spans: what is drawn then
         // does not depend on where the camera came from.
         let at_rest = self.last_camera == Some(*camera);

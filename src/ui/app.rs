@@ -313,6 +313,7 @@ impl App {
             detail_editor: self.editor.open,
             textures: gpu.terrain.look().textures,
             sky: gpu.terrain.look().sky,
+            sun: gpu.terrain.look().sun,
         };
         let picked = self.picker.poll().copied();
         let readout = Readout {
@@ -378,10 +379,12 @@ impl App {
         let look = crate::look::LookSettings {
             textures: live.textures,
             sky: live.sky,
+            sun: live.sun,
             ..gpu.terrain.look()
         };
         if look != gpu.terrain.look() {
-            // Rebuilds the terrain pipelines (compiled per look): one slow frame.
+            // Rebuilds the terrain pipelines when textures or sky changed (compiled per look):
+            // one slow frame; the sun only moves the frame's uniforms.
             gpu.terrain.set_look(&gpu.ctx.device, look);
         }
         Some((output, actions, detail))

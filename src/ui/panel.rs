@@ -133,6 +133,46 @@ pub struct LiveSettings {
     /// The look's proto-textured surface types and its atmosphere (`look::LookSettings`).
     pub textures: bool,
     pub sky: bool,
+    /// Where the sun stands (`--time`): fixed in every view's sky, or the real one at a UTC time.
+    pub sun: crate::look::Sun,
+}
+
+/// The sun's controls: fixed, or at a UTC time chosen by day of the year and time of day.
+fn sun_controls(ui: &mut egui::Ui, sun: &mut crate::look::Sun) {
+    use crate::look::{Sun, Utc};
+    let mut at_time = matches!(sun, Sun::At(_));
+    ui.checkbox(&mut at_time, "sun at a time (UTC)")
+        .on_hover_text(
+            "the real sun at that moment (off: 35° above every view's south-east horizon)",
+        );
+    match (at_time, *sun) {
+        (true, Sun::Fixed) => {
+            let now = std::time::SystemTime::now()
+                .duration_since(std::time::UNIX_EPOCH)
+                .map_or(0, |d| d.as_secs() as i64);
+            *sun = Sun::At(Utc { unix_s: now });
+        }
+        (false, Sun::At(_)) => *sun = Sun::Fixed,
+        (true, Sun::At(t)) => {
+            let (year, mut day, seconds) = t.year_day();
+            let mut hours = seconds as f64 / 3600.0;
+            ui.add(egui::Slider::new(&mut day, 1..=366).text("day of the year"));
+            ui.add(
+                egui::Slider::new(&mut hours, 0.0..=23.99)
+                    .step_by(1.0 / 60.0)
+                    .text("hour (UTC)"),
+            );
+            *sun = Sun::At(Utc::from_year_day(
+                year,
+                day,
+                (hours * 3600.0).round() as i64,
+            ));
+            if let Sun::At(t) = sun {
+                ui.label(t.to_string());
+            }
+        }
+        (false, Sun::Fixed) => {}
+    }
 }
 
 /// What the panel shows this frame.
@@ -336,6 +376,7 @@ impl Panel {
             ui.checkbox(&mut live.sky, "atmosphere")
                 .on_hover_text("sky, glow around the disk, haze (off: flat sky, raw colours)");
         });
+        sun_controls(ui, &mut live.sun);
         ui.checkbox(&mut live.detail_editor, "detail editor")
             .on_hover_text("edit the procedural detail live: sliders, presets, load/save, paint");
         if ui
@@ -839,6 +880,7 @@ mod tests {
             detail_editor: true,
             textures: true,
             sky: true,
+            sun: crate::look::Sun::At(crate::look::Utc::parse("2026-06-21T19:00Z").unwrap()),
         };
         let ctx = egui::Context::default();
         // The "go to" field's error line lays out too.

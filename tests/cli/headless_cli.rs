@@ -85,6 +85,9 @@ fn bad_close_up_settings_name_their_flag() {
         ("--grid", "4096x4096", "at most"),
         ("--grid", "abc", "COLSxROWS"),
         ("--gamma", "0", "must be > 0"),
+        ("--time", "2026-06-21 19:00", "YYYY-MM-DDTHH:MMZ"),
+        ("--time", "2026-02-30T19:00Z", "day 30"),
+        ("--time", "2026-06-21T25:00Z", "hour 25"),
     ] {
         let run = Command::new(env!("CARGO_BIN_EXE_globe"))
             .args([

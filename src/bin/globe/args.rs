@@ -5,7 +5,7 @@ use anyhow::{Context, bail};
 use clap::{Args, ValueEnum};
 use globe::clipmap::settings::DEFAULT_ERROR_BUDGET_PX;
 use globe::clipmap::{ClipmapSettings, TransformForm};
-use globe::look::{LookSettings, MipKind};
+use globe::look::{LookSettings, MipKind, Sun, Utc};
 use globe::plan::{LodMode, LodSettings};
 use globe::planar::geomip::GeomipSettings;
 use globe::planar::projgrid::ProjGridSettings;
@@ -222,6 +222,15 @@ pub struct LookArgs {
     /// Mipmaps of the proto-textures.
     #[arg(long = "texture-mips", value_name = "KIND", default_value = "variance")]
     pub texture_mips: TextureMips,
+    /// The sun where it stands at this UTC time, YYYY-MM-DDTHH:MMZ (or with :SS), e.g.
+    /// 2026-06-21T19:30Z (Meeus's solar position, about 0.01°); without it the sun stands 35°
+    /// above the south-east horizon of every view.
+    #[arg(long, value_name = "UTC", value_parser = parse_time)]
+    pub time: Option<Utc>,
+}
+
+fn parse_time(text: &str) -> Result<Utc, String> {
+    Utc::parse(text).map_err(|e| e.to_string())
 }
 
 impl LookArgs {
@@ -233,6 +242,7 @@ impl LookArgs {
                 TextureMips::Variance => MipKind::VarianceReducing,
                 TextureMips::Standard => MipKind::Standard,
             },
+            sun: self.time.map_or(Sun::Fixed, Sun::At),
         }
     }
 }
