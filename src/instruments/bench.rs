@@ -52,6 +52,8 @@ pub struct BenchOptions {
     pub scene: String,
     /// A view given as such (`--camera`), benchmarked instead of a named scene.
     pub camera: Option<CameraSpec>,
+    /// A recorded path (`--path`), flown as `flight` is: its frames spread evenly over it.
+    pub path: Option<crate::scenes::path::CameraPath>,
     pub frames: usize,
     pub warmup: usize,
     pub width: u32,
@@ -142,8 +144,11 @@ pub struct BenchRun {
     pub wall_s: f64,
 }
 
-/// The view a run holds still, or None for the `flight` path.
+/// The view a run holds still, or None for the `flight` path and a recorded one.
 fn fixed_view(options: &BenchOptions) -> Result<Option<CameraSpec>, UnknownScene> {
+    if options.path.is_some() {
+        return Ok(None);
+    }
     match (&options.camera, options.scene.as_str()) {
         (Some(view), _) => Ok(Some(*view)),
         (None, flight::NAME) => Ok(None),
@@ -230,9 +235,13 @@ pub fn run_with(
     let ground = |lat: f64, lon: f64| terrain.height_at_lat_lon_m(lat, lon);
     let is_flight = view.is_none();
     let fixed = view.map(|v| v.camera(ground));
-    let camera_of = |i: usize| match fixed {
-        Some(c) => c,
-        None => flight::frame_camera(i, options.frames, ground),
+    let camera_of = |i: usize| match (fixed, &options.path) {
+        (Some(c), _) => c,
+        (None, Some(path)) => {
+            let t = i as f64 / options.frames.saturating_sub(1).max(1) as f64;
+            path.camera_at(t * path.duration_s())
+        }
+        (None, None) => flight::frame_camera(i, options.frames, ground),
     };
     if let Some(camera) = &fixed {
         warm_up(&rig, &mut renderer, camera, options)?;
@@ -1048,6 +1057,7 @@ mod view_tests {
         BenchOptions {
             scene: scene.into(),
             camera,
+            path: None,
             frames: 1,
             warmup: 0,
             width: 1,

@@ -4,6 +4,9 @@
 //! Every name is looked up through [`find`] (one registry, one error listing the names), and any
 //! other view is a [`CameraSpec`], parsed from the `--camera` / "go to" text
 //! `LAT,LON,HEIGHT,HEADING,PITCH[,ROLL]` and validated ([`ViewError`] names the bad value).
+//!
+//! Recorded paths (`path`: the viewer's camera as keys of time and view) replay through
+//! the viewer, `globe render --path` and `globe bench --path`.
 
 use std::fmt;
 use std::str::FromStr;
@@ -12,6 +15,7 @@ use crate::geo::EARTH_RADIUS_M;
 use crate::geo::camera::Camera;
 
 pub mod flight;
+pub mod path;
 pub mod soak_path;
 
 /// Vertical field of view of every named scene (docs/design.md#scenes).

@@ -30,6 +30,7 @@ use super::input::{Drag, Input};
 use super::panel::{FrameStats, LiveSettings, MeshDraft, Panel, PanelAction, Readout};
 use super::pick::{PickRequest, Picker};
 use super::{UiError, ViewerOptions};
+use crate::scenes::path::{CameraPath, Recorder};
 
 /// Environment variable of the smoke check: screenshot after this many frames, then quit.
 pub const SMOKE_FRAMES_ENV: &str = "GLOBE_VIEWER_SMOKE_FRAMES";
@@ -135,6 +136,10 @@ struct App {
     picker: Picker,
     /// A flight to a view under way, and when it started.
     fly: Option<(FlyTo, Instant)>,
+    /// The camera being recorded (R), and since when.
+    recording: Option<(Recorder, Instant)>,
+    /// A recorded path being replayed, and since when (from the first frame drawn).
+    replay: Option<(CameraPath, Option<Instant>)>,
     /// The last left press on the terrain (a second one soon after is a double-click).
     last_press: Option<(Instant, PhysicalPosition<f64>)>,
     /// File changes already printed on stderr (each is printed once).
@@ -147,6 +152,7 @@ const FLIGHT_SECONDS: f64 = 30.0;
 impl App {
     fn new(options: ViewerOptions, display: OwnedDisplayHandle, smoke_frames: Option<u64>) -> Self {
         let planet = options.terrain.clone();
+        let replay = options.replay.clone().map(|p| (p, None));
         let mut camera = options
             .start
             .camera(|lat, lon| terrain_height_m(&planet, lat, lon));
@@ -179,6 +185,8 @@ impl App {
             editor,
             picker: Picker::new(),
             fly: None,
+            recording: None,
+            replay,
             last_press: None,
             file_changes_printed: 0,
         }
@@ -273,6 +281,17 @@ impl App {
             }
         }
         let keys = self.input.fly_input();
+        if let Some((path, started)) = &mut self.replay {
+            let t = started
+                .get_or_insert_with(Instant::now)
+                .elapsed()
+                .as_secs_f64();
+            self.camera = path.camera_at(t);
+            if t >= path.duration_s() {
+                self.replay = None;
+                self.panel.message = Some("replay: the path has ended".into());
+            }
+        }
         if let Some((flight, started)) = &self.fly {
             if keys.is_idle() {
                 let (camera, arrived) = flight.at(started.elapsed().as_secs_f64(), terrain);
@@ -286,6 +305,9 @@ impl App {
             }
         }
         controls::fly(&mut self.camera, &keys, dt_s, radius_m, terrain);
+        if let Some((recorder, started)) = &mut self.recording {
+            recorder.record(started.elapsed().as_secs_f64(), &self.camera);
+        }
         terrain(self.camera.lat_deg, self.camera.lon_deg)
     }
 
@@ -472,6 +494,35 @@ impl App {
         let mut target = view.camera(terrain);
         controls::normalize(&mut target, terrain);
         self.fly_to(target);
+    }
+
+    /// R: starts recording the camera, or stops and saves the path beside the screenshots.
+    fn toggle_recording(&mut self) {
+        let Some((recorder, _)) = self.recording.take() else {
+            self.recording = Some((Recorder::default(), Instant::now()));
+            self.panel.message = Some("recording the camera: press R again to save".into());
+            return;
+        };
+        let seconds = SystemTime::now()
+            .duration_since(UNIX_EPOCH)
+            .map_or(0, |d| d.as_secs());
+        let file = PathBuf::from(format!("globe-path-{seconds}.json"));
+        let saved = recorder
+            .finish(&file)
+            .and_then(|p| p.save(&file).map(|()| p));
+        self.panel.message = Some(match saved {
+            Ok(path) => {
+                println!("camera path saved to {}", file.display());
+                format!(
+                    "path saved to {} ({} keys, {:.1} s); replay: globe --path {}",
+                    file.display(),
+                    path.keys().len(),
+                    path.duration_s(),
+                    file.display()
+                )
+            }
+            Err(e) => format!("the path was not saved: {e}"),
+        });
     }
 
     /// Starts a flight from the camera to `target`.
@@ -680,6 +731,9 @@ impl App {
                 }
                 if !event.repeat && matches!(code, KeyCode::F12 | KeyCode::KeyP) {
                     let _ = self.screenshot();
+                }
+                if !event.repeat && code == KeyCode::KeyR {
+                    self.toggle_recording();
                 }
                 self.input.keys.insert(code);
             }

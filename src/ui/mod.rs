@@ -23,6 +23,7 @@
 //! | arrow keys | turn (left/right) and pitch (up/down) |
 //! | Shift (with W/S/A/D/Q/E) | 5 × faster |
 //! | double-click | fly to the point under the cursor (a third of the way from it back to the eye, looking at it) |
+//! | R | record the camera: press again to save `globe-path-<unix seconds>.json` (replay: `globe --path FILE`) |
 //! | F12, P | screenshot: `globe-screenshot-<unix seconds>.png` in the current directory |
 //!
 //! Hidden options for automated checks: `GLOBE_VIEWER_SMOKE_FRAMES=N` takes a screenshot after N
@@ -61,6 +62,8 @@ pub struct ViewerOptions {
     pub look: crate::look::LookSettings,
     /// Which LOD method draws the ground near the viewer (`--mode`).
     pub lod: crate::plan::LodSettings,
+    /// A recorded path to replay from the start (`--path`).
+    pub replay: Option<crate::scenes::path::CameraPath>,
 }
 
 impl Default for ViewerOptions {
@@ -74,6 +77,7 @@ impl Default for ViewerOptions {
             stream: crate::stream::StreamSettings::default(),
             look: crate::look::LookSettings::default(),
             lod: crate::plan::LodSettings::default(),
+            replay: None,
         }
     }
 }

@@ -23,6 +23,7 @@ fn bench_json_has_the_promised_fields() {
     let options = BenchOptions {
         scene: "aircraft".into(),
         camera: None,
+        path: None,
         frames: 3,
         warmup: 1,
         width: 160,

@@ -8,6 +8,7 @@ mod common;
 mod bench_report;
 mod detail_editor;
 mod headless_cli;
+mod path;
 mod probe;
 mod profile;
 mod soak;

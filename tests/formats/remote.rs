@@ -702,6 +702,7 @@ fn the_flight_over_http_settles_to_the_local_files_frame() {
     let opts = BenchOptions {
         scene: globe::scenes::flight::NAME.into(),
         camera: None,
+        path: None,
         frames: 24,
         warmup: 0,
         width: 192,

@@ -71,6 +71,7 @@ fn flight_options(latency_ms: u64, fail_rate: f64, cache_bytes: u64) -> BenchOpt
     BenchOptions {
         scene: flight::NAME.into(),
         camera: None,
+        path: None,
         frames: 24,
         warmup: 0,
         width: 192,

@@ -33,6 +33,10 @@ pub struct BenchArgs {
     /// `globe render --camera`.
     #[arg(long, value_name = "VIEW", allow_hyphen_values = true)]
     pub camera: Option<CameraSpec>,
+    /// Benchmark a recorded camera path (JSON, as the viewer's R key writes it) as `flight`
+    /// is: --frames frames spread over it from a cold start (named "path" in the outputs).
+    #[arg(long, value_name = "FILE.json", conflicts_with_all = ["camera", "scene"])]
+    pub path: Option<std::path::PathBuf>,
     /// Measured frames.
     #[arg(long, default_value_t = 100)]
     pub frames: usize,
@@ -105,7 +109,12 @@ pub struct BenchArgs {
 }
 
 pub fn bench(args: &BenchArgs) -> anyhow::Result<ExitCode> {
-    let is_flight = args.camera.is_none() && args.scene == globe::scenes::flight::NAME;
+    let path = match &args.path {
+        Some(file) => Some(globe::scenes::path::CameraPath::load(file)?),
+        None => None,
+    };
+    let is_flight =
+        path.is_some() || (args.camera.is_none() && args.scene == globe::scenes::flight::NAME);
     if args.camera.is_none() && args.scene == globe::instruments::bench::JUMP {
         return bench_jump(args);
     }
@@ -118,7 +127,10 @@ pub fn bench(args: &BenchArgs) -> anyhow::Result<ExitCode> {
             globe::instruments::soak::NAME
         );
     }
-    let name = view_name(args, is_flight)?;
+    let name = match path {
+        Some(_) => PATH_VIEW_NAME,
+        None => view_name(args, is_flight)?,
+    };
     if args.frames == 0 {
         bail!("--frames must be at least 1");
     }
@@ -137,6 +149,7 @@ pub fn bench(args: &BenchArgs) -> anyhow::Result<ExitCode> {
         let options = globe::instruments::bench::BenchOptions {
             scene: name.to_owned(),
             camera: args.camera,
+            path: path.clone(),
             frames: args.frames,
             warmup: args.warmup,
             width: args.width,
@@ -172,6 +185,9 @@ pub fn bench(args: &BenchArgs) -> anyhow::Result<ExitCode> {
     }
     Ok(ExitCode::SUCCESS)
 }
+
+/// What the outputs call a recorded path's run.
+const PATH_VIEW_NAME: &str = "path";
 
 /// The name the outputs give the view: names are checked before the adapter starts, so a
 /// misspelt scene fails at once; the library looks them up the same way.

@@ -21,7 +21,7 @@ use crate::args::*;
 use crate::scenes::*;
 
 #[derive(Args)]
-#[group(id = "view", required = true, multiple = false, args = ["scene", "camera"])]
+#[group(id = "view", required = true, multiple = false, args = ["scene", "camera", "path"])]
 pub struct RenderArgs {
     /// Named scene to render (see `globe scenes`).
     #[arg(long)]
@@ -39,9 +39,20 @@ pub struct RenderArgs {
     /// Image height in pixels.
     #[arg(long, default_value_t = 720)]
     pub height: u32,
-    /// Output PNG file.
-    #[arg(long)]
-    pub out: PathBuf,
+    /// A recorded camera path (JSON, as the viewer's R key writes it) to render frame by frame
+    /// into --out-dir.
+    #[arg(long, value_name = "FILE.json")]
+    pub path: Option<PathBuf>,
+    /// Output PNG file (one view: --scene or --camera).
+    #[arg(long, required_unless_present = "path")]
+    pub out: Option<PathBuf>,
+    /// With --path: the folder the frames are written to, `frame_00000.png` on (made if
+    /// missing).
+    #[arg(long, value_name = "DIR", requires = "path")]
+    pub out_dir: Option<PathBuf>,
+    /// With --path: frames per second of path time.
+    #[arg(long, value_name = "N", default_value_t = 30.0, requires = "path")]
+    pub fps: f64,
     /// Debug overlay to draw.
     #[arg(long)]
     pub overlay: Option<Overlay>,
@@ -71,6 +82,12 @@ pub struct RenderArgs {
 }
 
 pub fn render(args: &RenderArgs) -> anyhow::Result<ExitCode> {
+    if let Some(path) = &args.path {
+        return render_path(args, path);
+    }
+    let Some(out) = &args.out else {
+        bail!("--out FILE.png is needed to render one view");
+    };
     let (name, view) = chosen_view(args.scene.as_deref().unwrap_or_default(), args.camera)?;
     let checked = RenderSettings::of(args)?;
     let started = Instant::now();
@@ -111,15 +128,81 @@ pub fn render(args: &RenderArgs) -> anyhow::Result<ExitCode> {
         globe::measure::overlay_heat(&mut frame.rgba, &rho, globe::measure::ERROR_OVERLAY_OPACITY);
     }
     frame
-        .save_png(&args.out)
-        .with_context(|| format!("cannot write {}", args.out.display()))?;
+        .save_png(out)
+        .with_context(|| format!("cannot write {}", out.display()))?;
 
     print_frame_summary(args, &name, &camera, &frame);
     eprintln!(
         "wrote {} ({}×{}) in {:.2} s",
-        args.out.display(),
+        out.display(),
         args.width,
         args.height,
+        started.elapsed().as_secs_f64()
+    );
+    Ok(ExitCode::SUCCESS)
+}
+
+/// `--path`: one PNG per frame of the recorded path at `--fps`, each with streaming settled
+/// (or `--no-wait`: what a live viewer would show then), with progress on stderr.
+fn render_path(args: &RenderArgs, path_file: &std::path::Path) -> anyhow::Result<ExitCode> {
+    let Some(dir) = &args.out_dir else {
+        bail!("--path needs --out-dir DIR for its frames");
+    };
+    if args.out.is_some() {
+        bail!("--path writes frames into --out-dir; --out is for one view");
+    }
+    if args.measure || args.overlay == Some(Overlay::Error) {
+        bail!("--measure and --overlay error measure one view; render it with --camera");
+    }
+    if !(args.fps.is_finite() && args.fps > 0.0 && args.fps <= 1000.0) {
+        bail!("--fps must be above 0 and at most 1000 (got {})", args.fps);
+    }
+    let checked = RenderSettings::of(args)?;
+    let path = globe::scenes::path::CameraPath::load(path_file)?;
+    let times = path.frame_times_s(args.fps);
+    std::fs::create_dir_all(dir)
+        .with_context(|| format!("cannot create --out-dir {}", dir.display()))?;
+    let started = Instant::now();
+    let ctx = GpuContext::headless().context("cannot render without a graphics adapter")?;
+    eprintln!("adapter: {}", ctx.adapter_description());
+    let terrain = args.dem.open()?;
+    eprintln!("terrain: {}", terrain.describe());
+    let mut renderer = TerrainRenderer::with_streaming(
+        &ctx.device,
+        checked.settings,
+        terrain,
+        COLOR_FORMAT,
+        checked.stream,
+    )?;
+    renderer.overlays.levels = args.overlay == Some(Overlay::Levels);
+    renderer.set_wireframe(&ctx.device, args.overlay == Some(Overlay::Wireframe));
+    renderer.set_look(&ctx.device, args.look.settings());
+    renderer.set_lod(&ctx.device, checked.lod);
+    let target = OffscreenFrame::new(&ctx.device, args.width, args.height);
+    let mut progress =
+        globe::progress::Progress::new("rendering the path", times.len() as u64, Some("frames"));
+    for (k, &t) in times.iter().enumerate() {
+        let camera = path.camera_at(t);
+        let frame = if args.no_wait {
+            target.render_now(&ctx, &mut renderer, &camera)?
+        } else {
+            target.render_settled_within(&ctx, &mut renderer, &camera, checked.settle_timeout)?
+        };
+        let file = dir.join(format!("frame_{k:05}.png"));
+        frame
+            .save_png(&file)
+            .with_context(|| format!("cannot write {}", file.display()))?;
+        progress.set(k as u64 + 1);
+    }
+    progress.finish();
+    eprintln!(
+        "wrote {} frames ({}×{}, {} fps of a {:.2} s path) to {} in {:.2} s",
+        times.len(),
+        args.width,
+        args.height,
+        args.fps,
+        path.duration_s(),
+        dir.display(),
         started.elapsed().as_secs_f64()
     );
     Ok(ExitCode::SUCCESS)

@@ -18,6 +18,9 @@ pub struct ViewerArgs {
     /// --camera`; the panel's "go to" field takes it too.
     #[arg(long, value_name = "VIEW", allow_hyphen_values = true)]
     pub camera: Option<CameraSpec>,
+    /// Replay a recorded camera path (JSON, as the R key writes it) from the start.
+    #[arg(long, value_name = "FILE.json")]
+    pub path: Option<std::path::PathBuf>,
     /// Debug overlay to start with.
     #[arg(long)]
     pub overlay: Option<Overlay>,
@@ -50,6 +53,10 @@ pub fn viewer(args: &ViewerArgs) -> anyhow::Result<ExitCode> {
         look: args.look.settings(),
         lod: args.lod.settings()?,
         stream: args.stream.settings()?,
+        replay: match &args.path {
+            Some(file) => Some(globe::scenes::path::CameraPath::load(file)?),
+            None => None,
+        },
     };
     match globe::ui::run(options) {
         Ok(()) => Ok(ExitCode::SUCCESS),
