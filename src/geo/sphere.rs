@@ -77,9 +77,63 @@ pub fn great_circle_distance_m(a_unit: DVec3, b_unit: DVec3, radius_m: f64) -> f
     radius_m * a_unit.cross(b_unit).length().atan2(a_unit.dot(b_unit))
 }
 
+/// The area in square metres enclosed on the sphere of radius `radius_m` by the polygon whose
+/// corners are the unit vectors `corners` joined by great-circle arcs (simple, either
+/// orientation): R² times the sum of the signed solid angles of the fan triangles from the
+/// first corner, each from Van Oosterom and Strackee's formula
+/// tan(Ω/2) = a·(b × c) / (1 + a·b + b·c + c·a). Exact for any size below a hemisphere; 0 for
+/// fewer than three corners.
+pub fn polygon_area_m2(corners: &[DVec3], radius_m: f64) -> f64 {
+    if corners.len() < 3 {
+        return 0.0;
+    }
+    let a = corners[0];
+    let solid: f64 = corners[1..]
+        .windows(2)
+        .map(|w| {
+            let (b, c) = (w[0], w[1]);
+            2.0 * a
+                .dot(b.cross(c))
+                .atan2(1.0 + a.dot(b) + b.dot(c) + c.dot(a))
+        })
+        .sum();
+    radius_m * radius_m * solid.abs()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The octant (three corners 90° apart) is an eighth of the sphere, 4πR²/8, either way
+    /// round; a small square near the equator is its side squared; the square inscribed in
+    /// the cap within 1° of the north pole is 2/π of the cap (the plane limit).
+    #[test]
+    fn polygon_areas_against_closed_forms() {
+        let r = 6_371_000.0;
+        let u = |lat: f64, lon: f64| {
+            let (p, t) = phi_theta_from_lat_lon_deg(lat, lon);
+            unit_vector(p, t)
+        };
+        let octant = polygon_area_m2(&[u(0.0, 0.0), u(0.0, 90.0), u(90.0, 0.0)], r);
+        assert!(
+            (octant / (PI * r * r / 2.0) - 1.0).abs() < 1e-12,
+            "{octant}"
+        );
+        let reversed = polygon_area_m2(&[u(90.0, 0.0), u(0.0, 90.0), u(0.0, 0.0)], r);
+        assert!((reversed - octant).abs() < 1e-3);
+        let d: f64 = 1e-4; // degrees: an 11 m square
+        let side = r * d.to_radians();
+        let square = polygon_area_m2(&[u(0.0, 0.0), u(0.0, d), u(d, d), u(d, 0.0)], r);
+        assert!((square / (side * side) - 1.0).abs() < 1e-6, "{square}");
+        let cap = 2.0 * PI * r * r * (1.0 - 1f64.to_radians().cos());
+        let polar = polygon_area_m2(
+            &[u(89.0, 0.0), u(89.0, 90.0), u(89.0, 180.0), u(89.0, 270.0)],
+            r,
+        );
+        // The inscribed square of the cap: 2/π of the circle's area in the plane limit.
+        assert!((polar / cap - 2.0 / PI).abs() < 1e-3, "{polar} vs {cap}");
+        assert_eq!(polygon_area_m2(&[u(0.0, 0.0), u(1.0, 1.0)], r), 0.0);
+    }
 
     #[test]
     fn poles_are_exact_and_finite() {

@@ -27,6 +27,7 @@ use super::editor::{Editor, EditorView};
 use super::fly_to::{FlyTo, closer_look};
 use super::gpu::{Acquired, Gpu};
 use super::input::{Drag, Input};
+use super::measure_tool::{MeasureTool, MeasuredPoint};
 use super::panel::{FrameStats, LiveSettings, MeshDraft, Panel, PanelAction, Readout};
 use super::pick::{PickRequest, Picker};
 use super::{UiError, ViewerOptions};
@@ -106,6 +107,25 @@ fn ground<'a>(gpu: Option<&'a Gpu>, planet: &'a Terrain) -> impl Fn(f64, f64) ->
     }
 }
 
+/// The measure tool's line and points over the view (pixels of a window whose egui scale is
+/// the context's): drawn under the panel, over the terrain.
+fn draw_measure(ctx: &egui::Context, line: &[Option<(f64, f64)>], points: &[Option<(f64, f64)>]) {
+    let scale = f64::from(ctx.pixels_per_point());
+    let pos = |(x, y): (f64, f64)| egui::pos2((x / scale) as f32, (y / scale) as f32);
+    let painter = ctx.layer_painter(egui::LayerId::background());
+    let stroke = egui::Stroke::new(2.0, egui::Color32::from_rgb(255, 210, 60));
+    // Runs of points in front of the eye, each a polyline.
+    for run in line.split(|p| p.is_none()) {
+        let run: Vec<egui::Pos2> = run.iter().flatten().map(|&p| pos(p)).collect();
+        if run.len() >= 2 {
+            painter.add(egui::Shape::line(run, stroke));
+        }
+    }
+    for p in points.iter().flatten() {
+        painter.circle(pos(*p), 4.0, egui::Color32::from_rgb(255, 120, 40), stroke);
+    }
+}
+
 /// Two presses of the left button this close in time and place make a double-click.
 const DOUBLE_CLICK_S: f64 = 0.4;
 const DOUBLE_CLICK_PX: f64 = 5.0;
@@ -136,6 +156,8 @@ struct App {
     picker: Picker,
     /// A flight to a view under way, and when it started.
     fly: Option<(FlyTo, Instant)>,
+    /// The measure tool's points.
+    measure: MeasureTool,
     /// The camera being recorded (R), and since when.
     recording: Option<(Recorder, Instant)>,
     /// A recorded path being replayed, and since when (from the first frame drawn).
@@ -185,6 +207,7 @@ impl App {
             editor,
             picker: Picker::new(),
             fly: None,
+            measure: MeasureTool::default(),
             recording: None,
             replay,
             last_press: None,
@@ -336,10 +359,18 @@ impl App {
             textures: gpu.terrain.look().textures,
             sky: gpu.terrain.look().sky,
             sun: gpu.terrain.look().sun,
+            measure: self.measure.on,
         };
         let picked = self.picker.poll().copied();
+        let (width, height) = (gpu.config.width, gpu.config.height);
+        let radius_m = self.planet.radius_m();
+        let measure_line = self
+            .measure
+            .on_screen(&self.camera, width, height, radius_m);
+        let measure_points = (self.measure).points_on_screen(&self.camera, width, height, radius_m);
         let readout = Readout {
             picked: picked.as_ref(),
+            measure: Some(&self.measure),
             stats: &self.stats,
             info: Some(info),
             camera: &self.camera,
@@ -379,10 +410,12 @@ impl App {
                     egui::Color32::from_white_alpha(235),
                 );
             }
+            draw_measure(ui.ctx(), &measure_line, &measure_points);
             actions = panel.show(ui, &readout, &mut live);
             editor.open = live.detail_editor;
             detail = editor.show(ui.ctx(), &editor_view);
         });
+        self.measure.on = live.measure;
         // Takes effect from the next frame's uniforms.
         gpu.terrain.settings.transform = live.transform;
         gpu.terrain.settings.approx_start_level = live.approx_start_level;
@@ -482,6 +515,7 @@ impl App {
             PanelAction::Screenshot => {
                 let _ = self.screenshot();
             }
+            PanelAction::ClearMeasure => self.measure.clear(),
         }
     }
 
@@ -735,6 +769,9 @@ impl App {
                 if !event.repeat && code == KeyCode::KeyR {
                     self.toggle_recording();
                 }
+                if code == KeyCode::Escape {
+                    self.measure.clear();
+                }
                 self.input.keys.insert(code);
             }
             ElementState::Released => {
@@ -776,8 +813,30 @@ impl App {
             ElementState::Released => {
                 if self.input.drag.is_some_and(|(b, _)| b == button) {
                     self.input.drag = None;
+                    if button == MouseButton::Left && self.measure.on {
+                        self.measure_click();
+                    }
                 }
             }
+        }
+    }
+
+    /// A left click that did not drag, with the measure tool on, adds the point under it.
+    fn measure_click(&mut self) {
+        let (Some((_, pressed)), Some(cursor)) = (self.last_press, self.input.cursor) else {
+            return;
+        };
+        if (pressed.x - cursor.x).hypot(pressed.y - cursor.y) >= DOUBLE_CLICK_PX {
+            return; // a drag: the view turned
+        }
+        let Some(picked) = self.picker.poll().copied() else {
+            return;
+        };
+        match picked.hit {
+            Some((hit, world_m)) => self
+                .measure
+                .add(MeasuredPoint { hit, world_m }, &self.planet),
+            None => self.panel.message = Some("measure: only sky under the cursor".into()),
         }
     }
 

@@ -8,6 +8,7 @@
 //! | `input.rs` | mouse and keyboard state between events |
 //! | `controls.rs` | pure f64 camera controls (look, pan, zoom, fly), unit-tested |
 //! | `fly_to.rs` | flights between views (up, over, down) and the view looking at a picked point, unit-tested |
+//! | `measure_tool.rs` | the measure tool: distances, area and the profile through clicked points, unit-tested |
 //! | `pick.rs` | what lies under the cursor: the f64 ray caster on a thread of its own |
 //! | `panel.rs` | the egui side panel: statistics, level table, settings, "go to"; no wgpu code |
 //! | `editor.rs` | the detail editor window: sliders, presets, load/save/reset, basis images, relief brush; no wgpu code |
@@ -23,6 +24,7 @@
 //! | arrow keys | turn (left/right) and pitch (up/down) |
 //! | Shift (with W/S/A/D/Q/E) | 5 × faster |
 //! | double-click | fly to the point under the cursor (a third of the way from it back to the eye, looking at it) |
+//! | click (measure on) / Escape | add a point to the measure tool / clear its points |
 //! | R | record the camera: press again to save `globe-path-<unix seconds>.json` (replay: `globe --path FILE`) |
 //! | F12, P | screenshot: `globe-screenshot-<unix seconds>.png` in the current directory |
 //!
@@ -36,6 +38,7 @@ pub mod editor;
 pub mod fly_to;
 mod gpu;
 mod input;
+pub mod measure_tool;
 pub mod panel;
 pub mod pick;
 

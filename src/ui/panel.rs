@@ -135,6 +135,8 @@ pub struct LiveSettings {
     pub sky: bool,
     /// Where the sun stands (`--time`): fixed in every view's sky, or the real one at a UTC time.
     pub sun: crate::look::Sun,
+    /// Clicks on the terrain add points to the measure tool.
+    pub measure: bool,
 }
 
 /// The sun's controls: fixed, or at a UTC time chosen by day of the year and time of day.
@@ -180,6 +182,8 @@ pub struct Readout<'a> {
     /// What lies under the cursor (None: the cursor is off the terrain's part of the window,
     /// or the first answer has not come yet).
     pub picked: Option<&'a crate::ui::pick::Picked>,
+    /// The measure tool's points, totals and profile (None: not shown).
+    pub measure: Option<&'a crate::ui::measure_tool::MeasureTool>,
     pub stats: &'a FrameStats,
     /// What the renderer decided for the last frame (None before the first frame).
     pub info: Option<&'a FrameInfo>,
@@ -211,6 +215,8 @@ pub enum PanelAction {
     /// view until the camera moves.
     MeasureError,
     Screenshot,
+    /// Clear the measure tool's points.
+    ClearMeasure,
 }
 
 /// The panel's own state between frames.
@@ -302,6 +308,8 @@ impl Panel {
         frame_section(ui, readout);
         ui.separator();
         camera_section(ui, readout);
+        ui.separator();
+        measure_section(ui, readout, live, actions);
         ui.separator();
 
         ui.strong("Scenes");
@@ -714,6 +722,116 @@ fn camera_section(ui: &mut egui::Ui, readout: &Readout<'_>) {
         });
 }
 
+/// The measure tool: its switch, totals and the profile's plot.
+fn measure_section(
+    ui: &mut egui::Ui,
+    readout: &Readout<'_>,
+    live: &mut LiveSettings,
+    actions: &mut Vec<PanelAction>,
+) {
+    ui.horizontal(|ui| {
+        ui.checkbox(&mut live.measure, "measure")
+            .on_hover_text("click points on the terrain: distances, height difference, area and the profile; Escape clears");
+        if ui.button("clear").clicked() {
+            actions.push(PanelAction::ClearMeasure);
+        }
+    });
+    let Some(tool) = readout.measure else {
+        return;
+    };
+    let rows = measure_rows(tool, readout.radius_m);
+    egui::Grid::new("measure readout")
+        .num_columns(2)
+        .show(ui, |ui| {
+            for (name, value) in rows {
+                ui.label(name);
+                ui.monospace(value);
+                ui.end_row();
+            }
+        });
+    profile_plot(ui, tool.profile());
+}
+
+/// The measure tool's rows: a hint before the first point, then the totals.
+pub fn measure_rows(
+    tool: &crate::ui::measure_tool::MeasureTool,
+    radius_m: f64,
+) -> Vec<(&'static str, String)> {
+    let Some(t) = tool.totals(radius_m) else {
+        return vec![("points", "none: click the terrain".to_string())];
+    };
+    let mut rows = vec![
+        ("points", t.points.to_string()),
+        ("great circle", format_length_m(t.great_circle_m)),
+        ("along terrain", format_length_m(t.along_terrain_m)),
+        ("height change", format_length_m(t.height_difference_m)),
+    ];
+    if let Some(a) = t.area_m2 {
+        let text = if a >= 1e6 {
+            format!("{:.3} km²", a / 1e6)
+        } else {
+            format!("{a:.1} m²")
+        };
+        rows.push(("area", text));
+    }
+    rows
+}
+
+/// The profile as a small plot: height against distance, the ground filled below.
+fn profile_plot(ui: &mut egui::Ui, profile: &[crate::measure::ProfilePoint]) {
+    if profile.len() < 2 {
+        return;
+    }
+    let width = ui.available_width().max(100.0);
+    let (rect, _) = ui.allocate_exact_size(egui::vec2(width, 110.0), egui::Sense::hover());
+    let painter = ui.painter_at(rect);
+    painter.rect_filled(rect, 2.0, Color32::from_gray(28));
+    let (lo, hi) = profile
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
+            (lo.min(p.height_m), hi.max(p.height_m))
+        });
+    let span = (hi - lo).max(1.0);
+    let length = profile
+        .last()
+        .map_or(1.0, |p| p.distance_m)
+        .max(f64::MIN_POSITIVE);
+    let inner = rect.shrink(6.0);
+    let at = |p: &crate::measure::ProfilePoint| {
+        egui::pos2(
+            inner.left() + (p.distance_m / length) as f32 * inner.width(),
+            inner.bottom() - ((p.height_m - lo) / span) as f32 * inner.height(),
+        )
+    };
+    let line: Vec<egui::Pos2> = profile.iter().map(at).collect();
+    painter.add(egui::Shape::line(
+        line,
+        egui::Stroke::new(1.5, Color32::from_rgb(214, 170, 110)),
+    ));
+    let small = egui::FontId::monospace(10.0);
+    painter.text(
+        inner.left_top(),
+        egui::Align2::LEFT_TOP,
+        format!("{hi:.0} m"),
+        small.clone(),
+        Color32::GRAY,
+    );
+    painter.text(
+        inner.left_bottom(),
+        egui::Align2::LEFT_BOTTOM,
+        format!("{lo:.0} m"),
+        small.clone(),
+        Color32::GRAY,
+    );
+    painter.text(
+        inner.right_bottom(),
+        egui::Align2::RIGHT_BOTTOM,
+        format_length_m(length),
+        small,
+        Color32::GRAY,
+    );
+}
+
 /// The rows of the "under the cursor" section: the surface point the f64 ray caster finds
 /// there (detail and water included), sky, or a dash while there is no answer.
 pub fn pick_rows(picked: Option<&crate::ui::pick::Picked>) -> Vec<(&'static str, String)> {
@@ -881,14 +999,37 @@ mod tests {
             textures: true,
             sky: true,
             sun: crate::look::Sun::At(crate::look::Utc::parse("2026-06-21T19:00Z").unwrap()),
+            measure: true,
         };
         let ctx = egui::Context::default();
+        let mut tool = crate::ui::measure_tool::MeasureTool::default();
+        let flat = crate::measure::ConstantHeight {
+            radius_m: crate::geo::EARTH_RADIUS_M,
+            height_m: 10.0,
+        };
+        for lat in [1.0, 2.0, 2.5] {
+            let (phi, theta) = crate::geo::sphere::phi_theta_from_lat_lon_deg(lat, lat * lat);
+            tool.add(
+                crate::ui::measure_tool::MeasuredPoint {
+                    hit: crate::measure::ProbeHit {
+                        lat_deg: lat,
+                        lon_deg: lat * lat,
+                        height_m: 10.0,
+                        distance_m: 1.0,
+                    },
+                    world_m: crate::geo::sphere::ecef_m(phi, theta, 10.0, flat.radius_m),
+                },
+                &flat,
+            );
+        }
+        assert_eq!(measure_rows(&tool, flat.radius_m).len(), 5);
         // The "go to" field's error line lays out too.
         panel.goto_text = "91,0,10,0,0".into();
         assert!(panel.submit_goto(crate::geo::EARTH_RADIUS_M).is_none());
         for info in [None, Some(&info)] {
             let readout = Readout {
                 picked: None,
+                measure: Some(&tool),
                 stats: &stats,
                 info,
                 camera: &camera,
